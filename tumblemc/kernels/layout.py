@@ -1,0 +1,96 @@
+"""Index constants shared by the kernels and the Python layer.
+
+All kernel quantities are dimensionless (see :mod:`tumblemc.units`): length unit
+``1e-4 m``, mass unit the robot mass ``m``, time unit ``sqrt(1e-4 m / g)``, so the weight
+``m g`` is 1 and the unknowns of one step are O(1).
+
+``prm`` (float64[N_PRM]): the run's constant physical parameters, scaled.
+``sc`` (float64[N_SC]): the data of one time step (start-of-step state, step length,
+external force, magnetic torque data).
+Unknown vector ``z`` of one step: ``[v+ (3), w+ (3), block_0, block_1, ...]`` with one
+contact block per convex piece, laid out as ``B_*`` below (``m_k`` = number of constraints
+of piece ``k``): ``a1 (3), a2 (3), lam_t, lam_o, lam_r, sigma, l_1..l_m, l_s, lam_n``.
+Forces are unknowns (impulse / h) so that their size does not depend on the step.
+"""
+
+# ---- prm: run constants (scaled) -------------------------------------------------
+P_MASS = 0  # robot mass (1 in scaled units)
+P_G = 1  # gravity magnitude (1 in scaled units)
+P_FELECT = 2  # electrostatic force magnitude along -n
+P_MU = 3  # friction coefficient
+P_ET = 4  # friction ellipsoid e_t
+P_EO = 5  # friction ellipsoid e_o
+P_ER = 6  # friction ellipsoid e_r (a length)
+P_LINEFRAC = 7  # line-contact fraction of the adhesion area
+P_ADHC = 8  # adhesion coefficient C (force / length^2)
+P_TORQ = 9  # V_m |E| |B|: magnetic torque magnitude
+P_FREQ = 10  # field frequency (cycles per time unit)
+P_ELECT_FLIGHT = 11  # 1: electrostatic force also in flight (authors' code); 0: in contact only
+P_TORQUE_END = 12  # 1: magnetic torque at the end of the step (paper); 0: at the start
+P_N = 13  # plane normal n (3)
+P_T = 16  # contact tangent t (3)
+P_O = 19  # contact tangent o (3)
+P_U = 22  # uphill direction u (3)
+P_EB = 25  # unit magnetisation direction in the body frame (3)
+P_IB = 28  # body inertia about the CM, 3x3 row-major (9)
+P_FIELD_ON = 37  # 1: field on, 0: off
+N_PRM = 38
+
+# ---- sc: one step ------------------------------------------------------------------
+S_X = 0  # CM position at the start of the step (3)
+S_Q = 3  # orientation quaternion (scalar first) at the start (4)
+S_V = 7  # linear velocity at the start (3)
+S_W = 10  # angular velocity (world) at the start (3)
+S_H = 13  # step length
+S_FEXT = 14  # applied force: gravity + electrostatic + adhesion (3)
+S_TM = 17  # magnetic torque when evaluated at the start of the step (3)
+S_BEND = 20  # P_TORQ * unit field at the end of the step, for torque="end" (3)
+N_SC = 23
+
+# ---- contact block of one convex piece ---------------------------------------------
+B_A1 = 0
+B_A2 = 3
+B_LT = 6
+B_LO = 7
+B_LR = 8
+B_SIG = 9
+B_L = 10  # first l_i; l_s = B_L + m, lam_n = B_L + m + 1
+B_FIXED = 12  # block size = B_FIXED + m
+
+# ---- constraint types ---------------------------------------------------------------
+C_PLANE = 0  # data (nx, ny, nz, d): f(y) = n.y - d
+C_CYL_X = 1  # data (cy, cz, R, 0): f(y) = sqrt((y1-cy)^2 + (y2-cz)^2) - R (axis along x)
+
+# ---- solver options array ----------------------------------------------------------
+O_TOL = 0
+O_MAXIT = 1
+O_MAXDEPTH = 2
+O_ARMIJO = 3
+O_MINSTEP = 4
+N_OPT = 5
+
+# ---- solver status codes -------------------------------------------------------------
+ST_OK = 0
+ST_MAXIT = 1
+ST_LINESEARCH = 2
+ST_NAN = 3
+
+# ---- record columns (one row per recorded instant) ----------------------------------
+R_T = 0
+R_X = 1  # 3
+R_Q = 4  # 4
+R_V = 8  # 3
+R_W = 11  # 3
+R_LN = 14  # normal force (sum over pieces)
+R_ADH = 15  # adhesion force computed from this step's contact mode (applied next step)
+R_AREA = 16  # contact area
+R_MODE = 17  # 0 none, 1 point/line, 2 face
+R_SLIP = 18  # slip speed at the ECP
+R_NIT = 19  # Newton iterations in the recorded interval
+R_RES = 20  # final residual (max over the interval)
+R_FALLBACK = 21  # damped/gradient fallbacks in the interval
+R_SUB = 22  # extra sub-steps in the interval
+R_PEN = 23  # max penetration in the interval
+R_FAIL = 24  # failed steps in the interval
+R_ECP = 25  # ECP a1 of the first piece in contact (3)
+N_REC = 28

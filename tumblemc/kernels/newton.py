@@ -1,0 +1,233 @@
+"""Dense semismooth Newton for ``Phi(z) = 0`` with the Fischer-Burmeister reformulation.
+
+Globalised on the merit ``theta = 1/2 ||Phi||^2`` (continuously differentiable for FB):
+Newton direction with an Armijo backtracking line search; where the Newton matrix is
+singular (free flight, lift-off, several active faces at an edge) or its direction is not
+a descent direction or fails the line search, a Levenberg-Marquardt step
+``(J^T J + nu I) d = -J^T Phi`` with ``nu = ||Phi||`` (Yamashita & Fukushima 2001), and
+as a last resort the steepest-descent step. No allocation: all arrays come in a
+:class:`Workspace`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from ._jit import jit
+from .layout import O_ARMIJO, O_MAXIT, O_MINSTEP, O_TOL, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
+from .residual import residual
+
+Workspace = namedtuple(
+    "Workspace",
+    ["F", "J", "A", "d", "zt", "Ft", "g", "fbb", "isfb", "piv", "v3", "m33", "q4", "e43", "Jt"],
+)
+
+
+def make_workspace(n: int) -> Workspace:
+    """Allocate the solver's arrays for ``n`` unknowns (done once per run)."""
+    f = np.zeros
+    return Workspace(
+        f(n), f((n, n)), f((n, n)), f(n), f(n), f(n), f(n), f(n),
+        np.zeros(n, np.int64), np.zeros(n, np.int64),
+        f((16, 3)), f((8, 3, 3)), f((2, 4)), f((2, 4, 3)), f((n, n)),
+    )  # fmt: skip
+
+
+@jit
+def lu_factor(A, piv, n):  # type: ignore[no-untyped-def]
+    """In-place LU with partial pivoting of ``A[:n, :n]``. False if numerically singular."""
+    amax = 0.0
+    for i in range(n):
+        for j in range(n):
+            v = abs(A[i, j])
+            if v > amax:
+                amax = v
+    if not amax > 0.0:
+        return False
+    tiny = 1e-13 * amax
+    for k in range(n):
+        p = k
+        best = abs(A[k, k])
+        for i in range(k + 1, n):
+            v = abs(A[i, k])
+            if v > best:
+                best = v
+                p = i
+        if not best > tiny:
+            return False
+        piv[k] = p
+        if p != k:
+            for j in range(n):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            f = A[i, k] * inv
+            if f != 0.0:
+                A[i, k] = f
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+            else:
+                A[i, k] = 0.0
+    return True
+
+
+@jit
+def lu_solve(A, piv, b, n):  # type: ignore[no-untyped-def]
+    """Solve in place with the factors of :func:`lu_factor`."""
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+    for i in range(n):
+        acc = b[i]
+        for j in range(i):
+            acc -= A[i, j] * b[j]
+        b[i] = acc
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= A[i, j] * b[j]
+        b[i] = acc / A[i, i]
+
+
+@jit
+def _lm_direction(J, F, g, A, piv, d, n, nu):  # type: ignore[no-untyped-def]
+    """d = -(J^T J + nu I)^-1 J^T F. False if even that fails."""
+    for i in range(n):
+        for j in range(i, n):
+            acc = 0.0
+            for k in range(n):
+                acc += J[k, i] * J[k, j]
+            A[i, j] = acc
+            A[j, i] = acc
+        A[i, i] += nu
+    if not lu_factor(A, piv, n):
+        return False
+    for i in range(n):
+        d[i] = -g[i]
+    lu_solve(A, piv, d, n)
+    return True
+
+
+@jit
+def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n):  # type: ignore[no-untyped-def]
+    """Armijo backtracking along ``d``; on success ``ws.zt`` holds the new point."""
+    t = 1.0
+    c = opts[O_ARMIJO]
+    while t >= opts[O_MINSTEP]:
+        for i in range(n):
+            ws.zt[i] = z[i] + t * d[i]
+        th = residual(ws.zt, sc, prm, ctype, cdata, pstart, ws.Ft, ws.Jt, False, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+        if th <= theta + c * t * slope:
+            return True, th
+        t *= 0.5
+    return False, theta
+
+
+@jit
+def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out):  # type: ignore[no-untyped-def]
+    """Solve ``Phi(z) = 0`` in place from the warm start ``z``.
+
+    Parameters
+    ----------
+    z : float64[n]
+        Warm start in, solution (or best iterate) out.
+    sc, prm, ctype, cdata, pstart
+        See :func:`tumblemc.kernels.residual.residual`.
+    ws : Workspace
+    opts : float64[N_OPT]
+        ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``.
+    out : int64[3]
+        Receives ``(iterations, fallbacks, 0)``.
+
+    Returns
+    -------
+    status : int
+        ``ST_OK``, ``ST_MAXIT``, ``ST_LINESEARCH`` or ``ST_NAN``.
+    resid : float
+        ``||Phi||_inf`` at the returned ``z``.
+    """
+    n = z.shape[0]
+    F = ws.F
+    J = ws.J
+    g = ws.g
+    d = ws.d
+    tol = opts[O_TOL]
+    maxit = int(opts[O_MAXIT])
+    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    fallbacks = 0
+    it = 0
+    status = ST_MAXIT
+    fnorm = 0.0
+    while True:
+        fnorm = 0.0
+        for i in range(n):
+            v = abs(F[i])
+            if v > fnorm:
+                fnorm = v
+        if not fnorm == fnorm or fnorm == math.inf:
+            status = ST_NAN
+            break
+        if fnorm <= tol:
+            status = ST_OK
+            break
+        if it >= maxit:
+            status = ST_MAXIT
+            break
+        it += 1
+        gnorm = 0.0
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += J[k, j] * F[k]
+            g[j] = acc
+            gnorm += acc * acc
+        gnorm = math.sqrt(gnorm)
+        accepted = False
+        th_new = theta
+        # 1. semismooth Newton
+        for i in range(n):
+            for j in range(n):
+                ws.A[i, j] = J[i, j]
+        if lu_factor(ws.A, ws.piv, n):
+            for i in range(n):
+                d[i] = -F[i]
+            lu_solve(ws.A, ws.piv, d, n)
+            slope = 0.0
+            dn = 0.0
+            for i in range(n):
+                slope += g[i] * d[i]
+                dn += d[i] * d[i]
+            if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
+                accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n)
+        # 2. Levenberg-Marquardt
+        if not accepted:
+            fallbacks += 1
+            nu = math.sqrt(2.0 * theta)
+            if _lm_direction(J, F, g, ws.A, ws.piv, d, n, nu):
+                slope = 0.0
+                for i in range(n):
+                    slope += g[i] * d[i]
+                if slope < 0.0:
+                    accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n)
+        # 3. steepest descent
+        if not accepted:
+            for i in range(n):
+                d[i] = -g[i] / max(gnorm, 1e-300)
+            accepted, th_new = _line_search(z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, ws, opts, n)
+        if not accepted:
+            status = ST_LINESEARCH
+            break
+        for i in range(n):
+            z[i] = ws.zt[i]
+        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    out[0] = it
+    out[1] = fallbacks
+    return status, fnorm

@@ -1,0 +1,507 @@
+"""Time loop: field, applied forces, warm starts, free flight, sub-steps, contact modes.
+
+One call of :func:`run` integrates one robot for ``n_steps`` steps of length ``h`` (scaled
+units) and writes ``rec`` rows every ``record_every`` steps (columns ``R_*``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from ._jit import jit
+from .geometry import constraint_eval, cross, quat_step, quat_to_rot
+from .layout import (
+    B_A1,
+    B_A2,
+    B_FIXED,
+    B_L,
+    B_LO,
+    B_LR,
+    B_LT,
+    B_SIG,
+    N_REC,
+    N_SC,
+    O_MAXDEPTH,
+    P_ADHC,
+    P_EB,
+    P_ELECT_FLIGHT,
+    P_FELECT,
+    P_FIELD_ON,
+    P_FREQ,
+    P_G,
+    P_LINEFRAC,
+    P_MASS,
+    P_MU,
+    P_N,
+    P_O,
+    P_T,
+    P_TORQ,
+    P_U,
+    R_ADH,
+    R_AREA,
+    R_ECP,
+    R_FAIL,
+    R_FALLBACK,
+    R_LN,
+    R_MODE,
+    R_NIT,
+    R_PEN,
+    R_Q,
+    R_RES,
+    R_SLIP,
+    R_SUB,
+    R_T,
+    R_V,
+    R_W,
+    R_X,
+    S_BEND,
+    S_FEXT,
+    S_H,
+    S_Q,
+    S_TM,
+    S_V,
+    S_W,
+    S_X,
+    ST_NAN,
+    ST_OK,
+)
+from .newton import Workspace, solve
+
+Geometry = namedtuple(
+    "Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"]
+)
+Geometry.__doc__ = """Robot geometry in scaled body coordinates, as kernel arrays.
+
+ctype, cdata : int64[M], float64[M, 4]   convex constraints (see ``constraint_eval``)
+carea : float64[M]   adhering area when that constraint alone touches the plane
+cline : int64[M]     1 if that constraint alone touching the plane is line contact
+pstart : int64[K+1]  piece k owns constraints pstart[k]:pstart[k+1]
+sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
+    points whose lowest one, minus the pad, bounds the piece from below in any direction
+    (polytope vertices with pad 0; sampled arcs with their sagitta as pad)
+"""
+
+CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as touching
+CONTACT_LN_TOL = 1e-9
+LOW_TOL = 1e-3  # support points this close (scaled length) to the lowest count as touching
+RESTART_TOL = 5e-2  # the same, for the fresh contact guess after a failed warm-started solve  # normal force (units of the weight) above which a piece touches
+
+
+@jit
+def field_dir(prm, t, out):  # type: ignore[no-untyped-def]
+    """Unit field ``R_x(2 pi f t) u`` (MODEL.md, "Field and magnetisation")."""
+    a = 2.0 * math.pi * prm[P_FREQ] * t
+    c = math.cos(a)
+    s = math.sin(a)
+    u1 = prm[P_U + 1]
+    u2 = prm[P_U + 2]
+    out[0] = prm[P_U]
+    out[1] = c * u1 - s * u2
+    out[2] = s * u1 + c * u2
+
+
+@jit
+def _prepare(state, t, h, prm, area_prev, touching_prev, sc, R, tmp, tmp2):  # type: ignore[no-untyped-def]
+    for i in range(13):
+        sc[i] = state[i]
+    sc[S_H] = h
+    m = prm[P_MASS]
+    push = prm[P_ADHC] * area_prev
+    if touching_prev or prm[P_ELECT_FLIGHT] > 0.5:
+        push += prm[P_FELECT]
+    for i in range(3):
+        sc[S_FEXT + i] = -push * prm[P_N + i]
+    sc[S_FEXT + 2] -= m * prm[P_G]
+    if prm[P_FIELD_ON] > 0.5:
+        quat_to_rot(state[3:7], R)
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += R[i, j] * prm[P_EB + j]
+            tmp[i] = acc
+        field_dir(prm, t, tmp2)
+        cross(tmp, tmp2, sc[S_TM : S_TM + 3])
+        field_dir(prm, t + h, tmp2)
+        for i in range(3):
+            sc[S_TM + i] *= prm[P_TORQ]
+            sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
+    else:
+        for i in range(3):
+            sc[S_TM + i] = 0.0
+            sc[S_BEND + i] = 0.0
+    return push
+
+
+@jit
+def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
+    """Lowest point of piece ``kp``: returns its height minus the pad; ``out`` receives the
+    centroid (world) of the support points within ``tol`` of the lowest one, the
+    middle of the touching face or edge, a good first guess of the ECP."""
+    best = math.inf
+    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
+        hgt = 0.0
+        for i in range(3):
+            wi = x[i]
+            for j in range(3):
+                wi += R[i, j] * geo.sup_pts[p, j]
+            hgt += prm[P_N + i] * wi
+        if hgt < best:
+            best = hgt
+    for i in range(3):
+        out[i] = 0.0
+    cnt = 0
+    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
+        hgt = 0.0
+        for i in range(3):
+            wi = x[i]
+            for j in range(3):
+                wi += R[i, j] * geo.sup_pts[p, j]
+            hgt += prm[P_N + i] * wi
+        if hgt <= best + tol:
+            cnt += 1
+            for i in range(3):
+                wi = x[i]
+                for j in range(3):
+                    wi += R[i, j] * geo.sup_pts[p, j]
+                out[i] += wi
+    for i in range(3):
+        out[i] /= cnt
+    return best - geo.sup_pad[kp]
+
+
+@jit
+def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, Hb, tol):  # type: ignore[no-untyped-def]
+    """Warm start of a contact block that was not touching (MODEL.md numerical traps)."""
+    a1 = z[off + B_A1 : off + B_A1 + 3]
+    hgt = lowest_point(x, R, prm, geo, kp, a1, tol)
+    gap = max(hgt, 0.0)
+    for i in range(3):
+        z[off + B_A2 + i] = a1[i] - gap * prm[P_N + i]
+    z[off + B_L + mk] = gap
+    # constraints through that point: l_i ~ max(0, -N_i . n), scaled so sum l_i N_i . n = -1
+    c0 = geo.pstart[kp]
+    for i in range(3):
+        tmp[i] = 0.0
+        for j in range(3):
+            tmp[i] += R[j, i] * (a1[j] - x[j])
+    s = 0.0
+    for ic in range(mk):
+        f = constraint_eval(geo.ctype[c0 + ic], geo.cdata[c0 + ic], tmp, gb, Hb)
+        dn = 0.0
+        for i in range(3):
+            ni = 0.0
+            for j in range(3):
+                ni += R[i, j] * gb[j]
+            dn += ni * prm[P_N + i]
+        li = max(0.0, -dn) if f > -1e-6 else 0.0
+        z[off + B_L + ic] = li
+        s += li * dn
+    if s < 0.0:
+        for ic in range(mk):
+            z[off + B_L + ic] /= -s
+    # an impact needs lam_n ~ m |v_n| / h plus the pressing load; slide at predicted values
+    for i in range(3):
+        tmp[i] = a1[i] - x[i]
+    cross(w, tmp, tmp2)
+    vn = 0.0
+    vt = 0.0
+    vo = 0.0
+    press = 0.0
+    for i in range(3):
+        vi = v[i] + tmp2[i]
+        vn += prm[P_N + i] * vi
+        vt += prm[P_T + i] * vi
+        vo += prm[P_O + i] * vi
+        press -= prm[P_N + i] * sc[S_FEXT + i]
+    ln = prm[P_MASS] * max(0.0, -vn) / h + max(press, 0.0)
+    z[off + B_L + mk + 1] = ln
+    vs = math.hypot(vt, vo)
+    mu = prm[P_MU]
+    z[off + B_SIG] = vs
+    z[off + B_LR] = 0.0
+    if vs > 0.0:
+        z[off + B_LT] = -mu * ln * vt / vs
+        z[off + B_LO] = -mu * ln * vo / vs
+    else:
+        z[off + B_LT] = 0.0
+        z[off + B_LO] = 0.0
+
+
+@jit
+def _contact_state(z, geo, prm, x, w, v, tmp, tmp2):  # type: ignore[no-untyped-def]
+    """Contact mode, adhering area, total normal force, slip speed and ECP piece offset."""
+    K = geo.pstart.shape[0] - 1
+    off = 6
+    mode = 0
+    area = 0.0
+    lnsum = 0.0
+    slip = 0.0
+    ecp_off = -1
+    for kp in range(K):
+        c0 = geo.pstart[kp]
+        mk = geo.pstart[kp + 1] - c0
+        ln = z[off + B_L + mk + 1]
+        if ln > CONTACT_LN_TOL:
+            lnsum += ln
+            if ecp_off < 0:
+                ecp_off = off
+            ltot = 0.0
+            for ic in range(mk):
+                ltot += max(z[off + B_L + ic], 0.0)
+            nact = 0
+            amin = math.inf
+            single_line = 0
+            for ic in range(mk):
+                if z[off + B_L + ic] > CONTACT_L_TOL * ltot:
+                    nact += 1
+                    amin = min(amin, geo.carea[c0 + ic])
+                    single_line = geo.cline[c0 + ic]
+            if nact == 1 and single_line == 0:
+                area += amin
+                mode = 2
+            elif nact >= 1:
+                area += prm[P_LINEFRAC] * amin
+                if mode == 0:
+                    mode = 1
+            for i in range(3):
+                tmp[i] = z[off + B_A1 + i] - x[i]
+            cross(w, tmp, tmp2)
+            vt = 0.0
+            vo = 0.0
+            for i in range(3):
+                vt += prm[P_T + i] * (v[i] + tmp2[i])
+                vo += prm[P_O + i] * (v[i] + tmp2[i])
+            slip = max(slip, math.hypot(vt, vo))
+        off += B_FIXED + mk
+    return mode, area, lnsum, slip, ecp_off
+
+
+@jit
+def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave):  # type: ignore[no-untyped-def]
+    """Integrate ``n_steps`` steps; returns ``(status, failed_steps)``.
+
+    Parameters
+    ----------
+    geo : Geometry
+    prm : float64[N_PRM]
+    state0 : float64[13]
+        ``x (3), Q (4), v (3), w (3)`` at ``t0`` (scaled); updated in place.
+    t0, h : float
+        Start time and step length (scaled).
+    n_steps, record_every : int
+    opts : float64[N_OPT]
+    rec : float64[n_steps // record_every + 1, N_REC]
+        Row 0 receives the initial state; row k the state after ``k * record_every`` steps.
+    ws, ws6 : Workspace
+        Workspaces for the full system and for the 6-unknown free-flight system.
+    z, z6, zsave : float64[n], float64[6], float64[n]
+        Unknowns (``z`` holds the warm start in and the last solution out).
+
+    Notes
+    -----
+    A step is first predicted in free flight (the same residual with no contact block);
+    if every support point stays above the plane that prediction is the exact solution
+    of the step (MODEL.md, numerical traps). Otherwise the full NCP is solved from the
+    warm start. A step whose solve fails is retried as halved sub-steps down to
+    ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
+    as failed. Returns ``ST_NAN`` if the state becomes non-finite.
+    """
+    state = state0
+    n = z.shape[0]
+    K = geo.pstart.shape[0] - 1
+    pempty = geo.pstart[:1]
+    sc = np.zeros(N_SC)
+    R = np.zeros((3, 3))
+    tmp = np.zeros(3)
+    tmp2 = np.zeros(3)
+    tmp3 = np.zeros(3)
+    gb = np.zeros(3)
+    Hb = np.zeros((3, 3))
+    qn = np.zeros(4)
+    Eq = np.zeros((4, 3))
+    Eqn = np.zeros((4, 3))
+    Jth = np.zeros((3, 3))
+    iters = np.zeros(3, np.int64)
+    touching = np.zeros(K, np.int64)
+    maxdepth = int(opts[O_MAXDEPTH])
+
+    area_prev = 0.0
+    any_touch = False
+    mode = 0
+    lnsum = 0.0
+    slip = 0.0
+    ecp_off = -1
+    adh = 0.0
+    t = t0
+    failed_total = 0
+    # accumulators over a record interval
+    acc_nit = 0
+    acc_res = 0.0
+    acc_fb = 0
+    acc_sub = 0
+    acc_pen = 0.0
+    acc_fail = 0
+
+    def_row = 0
+    _record(rec, def_row, t, state, 0.0, 0.0, 0.0, 0, 0.0, 0, 0.0, 0, 0, 0.0, 0, z, -1)
+    status = ST_OK
+    for step in range(n_steps):
+        remaining = h
+        hc = h
+        depth = 0
+        while remaining > 1e-12 * h:
+            if hc > remaining:
+                hc = remaining
+            _prepare(state, t, hc, prm, area_prev, any_touch, sc, R, tmp, tmp2)
+            # --- free-flight prediction
+            for i in range(6):
+                z6[i] = z[i]
+            st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters)
+            acc_nit += iters[0]
+            flight = False
+            if st6 == ST_OK:
+                quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
+                quat_to_rot(qn, R)
+                for i in range(3):
+                    tmp3[i] = state[i] + hc * z6[i]
+                flight = True
+                for kp in range(K):
+                    if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL) <= 1e-9:
+                        flight = False
+                        break
+            if flight:
+                for i in range(6):
+                    z[i] = z6[i]
+                off = 6
+                for kp in range(K):
+                    mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                    _landing_guess(z, off, mk, kp, tmp3, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL)
+                    z[off + B_L + mk + 1] = 0.0
+                    z[off + B_SIG] = 0.0
+                    z[off + B_LT] = 0.0
+                    z[off + B_LO] = 0.0
+                    off += B_FIXED + mk
+                st = ST_OK
+                res = res6
+            else:
+                for i in range(n):
+                    zsave[i] = z[i]
+                # warm start: blocks that were not touching get a landing guess
+                quat_to_rot(state[3:7], R)
+                off = 6
+                for kp in range(K):
+                    mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                    if touching[kp] == 0:
+                        _landing_guess(z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL)
+                    off += B_FIXED + mk
+                st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters)
+                acc_nit += iters[0]
+                acc_fb += iters[1]
+                if st != ST_OK:
+                    # the contact feature changed within the step (a face slapping down, an
+                    # edge passing over): retry from a fresh guess at the predicted end pose
+                    for i in range(n):
+                        z[i] = zsave[i]
+                    quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
+                    quat_to_rot(qn, R)
+                    for i in range(3):
+                        tmp3[i] = state[i] + hc * state[7 + i]
+                    off = 6
+                    for kp in range(K):
+                        mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                        _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, RESTART_TOL)
+                        off += B_FIXED + mk
+                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters)
+                    acc_nit += iters[0]
+                    acc_fb += iters[1] + 1
+                if st != ST_OK and depth < maxdepth:
+                    for i in range(n):
+                        z[i] = zsave[i]
+                    hc *= 0.5
+                    depth += 1
+                    acc_sub += 1
+                    continue
+                if st != ST_OK:
+                    acc_fail += 1
+                    failed_total += 1
+            if res > acc_res:
+                acc_res = res
+            # --- commit
+            for i in range(n):
+                if not z[i] == z[i]:
+                    status = ST_NAN
+            if status == ST_NAN:
+                break
+            quat_step(state[3:7], z[3:6], hc, qn, Eq, Eqn, Jth)
+            for i in range(3):
+                state[i] += hc * z[i]
+                state[7 + i] = z[i]
+                state[10 + i] = z[3 + i]
+            for i in range(4):
+                state[3 + i] = qn[i]
+            t += hc
+            remaining -= hc
+            mode, area_prev, lnsum, slip, ecp_off = _contact_state(z, geo, prm, state[0:3], state[10:13], state[7:10], tmp, tmp2)
+            adh = prm[P_ADHC] * area_prev
+            any_touch = mode > 0
+            off = 6
+            for kp in range(K):
+                mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                touching[kp] = 1 if z[off + B_L + mk + 1] > CONTACT_LN_TOL else 0
+                off += B_FIXED + mk
+            quat_to_rot(state[3:7], R)
+            for kp in range(K):
+                pen = -lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL)
+                if pen > acc_pen:
+                    acc_pen = pen
+        if status == ST_NAN:
+            break
+        if (step + 1) % record_every == 0:
+            def_row += 1
+            _record(rec, def_row, t, state, lnsum, adh, area_prev, mode, slip, acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off)
+            acc_nit = 0
+            acc_res = 0.0
+            acc_fb = 0
+            acc_sub = 0
+            acc_pen = 0.0
+            acc_fail = 0
+    return status, failed_total
+
+
+@jit
+def _record(rec, row, t, state, lnsum, adh, area, mode, slip, nit, res, nfb, nsub, pen, nfail, z, ecp_off):  # type: ignore[no-untyped-def]
+    rec[row, R_T] = t
+    for i in range(3):
+        rec[row, R_X + i] = state[i]
+        rec[row, R_V + i] = state[7 + i]
+        rec[row, R_W + i] = state[10 + i]
+        rec[row, R_ECP + i] = z[ecp_off + B_A1 + i] if ecp_off >= 0 else np.nan
+    for i in range(4):
+        rec[row, R_Q + i] = state[3 + i]
+    rec[row, R_LN] = lnsum
+    rec[row, R_ADH] = adh
+    rec[row, R_AREA] = area
+    rec[row, R_MODE] = mode
+    rec[row, R_SLIP] = slip
+    rec[row, R_NIT] = nit
+    rec[row, R_RES] = res
+    rec[row, R_FALLBACK] = nfb
+    rec[row, R_SUB] = nsub
+    rec[row, R_PEN] = max(pen, 0.0)
+    rec[row, R_FAIL] = nfail
+
+
+def n_records(n_steps: int, record_every: int) -> int:
+    """Rows of ``rec`` for a run."""
+    return n_steps // record_every + 1
+
+
+def empty_record(n_steps: int, record_every: int) -> np.ndarray:
+    """A ``rec`` array for a run."""
+    return np.zeros((n_records(n_steps, record_every), N_REC))
+
+
+__all__ = ["Geometry", "Workspace", "run", "field_dir", "empty_record", "n_records"]

@@ -1,0 +1,193 @@
+"""Physical parameters, presets and solver options (SI, validated, frozen).
+
+Glossary (paper symbol -> name here; units SI unless the name says otherwise):
+
+===================  ==========================  ==========================================
+paper                tumblemc                    meaning
+===================  ==========================  ==========================================
+m                    ``mass``                    robot mass, kg
+F_elect              ``F_elect``                 electrostatic force along -n, N
+mu                   ``mu``                      friction coefficient
+phi                  ``offset_deg``              magnetisation offset angle, degrees
+(MODEL.md)           ``offset_axis``             body axis about which phi tilts E (x: width)
+V_m                  ``V_m``                     magnetic volume, m^3
+abs(E)               ``magnetization``           magnetisation, A/m
+C                    ``adhesion_C``              adhesion per contact area, N/m^2
+(MODEL.md)           ``line_contact_fraction``   adhering fraction of the smaller face's
+                                                 area in point/line contact
+e_t, e_o, e_r        ``e_t``, ``e_o``, ``e_r``   friction ellipsoid (e_r is a length, m)
+g                    ``g``                       gravity, m/s^2
+p_t, p_o, p_r, p_n   ``lam_* = p_* / h``         contact forces (kernels use forces)
+a1, a2               ``a1``, ``a2``              equivalent contact points
+sigma                ``sigma``                   slip-speed multiplier
+l_i, l_s             ``l_i``, ``l_s``            normal-cone multipliers
+===================  ==========================  ==========================================
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+_POSITIVE = "> 0"
+_NONNEG = ">= 0"
+
+
+def _check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: float | None = None) -> float:
+    """Validate a scalar: finite float satisfying ``rule``; raise ValueError naming it."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}={value!r} is not a number (allowed: a finite value {rule})") from None
+    ok = math.isfinite(x)
+    if ok and rule == _POSITIVE:
+        ok = x > 0.0
+    elif ok and rule == _NONNEG:
+        ok = x >= 0.0
+    if ok and lo is not None:
+        ok = x >= lo
+    if ok and hi is not None:
+        ok = x <= hi
+    if not ok:
+        rng = rule if lo is None and hi is None else f"in [{lo}, {hi}]"
+        raise ValueError(f"{name}={value!r} is out of range (allowed: a finite value {rng})")
+    return x
+
+
+@dataclass(frozen=True)
+class Params:
+    """Physical parameters of one robot on one substrate (paper Tables 1 and 3; SI).
+
+    Every field can be overridden by name: ``PRESETS["paper"].replace(mu=0.4)`` or
+    ``simulate(mu=0.4)``. Construction validates every field and raises ``ValueError``
+    naming the field, the value and the allowed range.
+    """
+
+    mass: float
+    F_elect: float
+    mu: float
+    offset_deg: float
+    V_m: float
+    magnetization: float
+    adhesion_C: float
+    line_contact_fraction: float = 0.05
+    e_t: float = 1.0
+    e_o: float = 1.0
+    e_r: float = 0.1
+    offset_axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    electrostatic_in_flight: bool = True
+    g: float = 9.81
+
+    def __post_init__(self) -> None:
+        checks: dict[str, tuple[str, float | None, float | None]] = {
+            "mass": (_POSITIVE, None, None),
+            "F_elect": (_NONNEG, None, None),
+            "mu": (_NONNEG, None, None),
+            "offset_deg": ("", -180.0, 180.0),
+            "V_m": (_NONNEG, None, None),
+            "magnetization": (_NONNEG, None, None),
+            "adhesion_C": (_NONNEG, None, None),
+            "line_contact_fraction": ("", 0.0, 1.0),
+            "e_t": (_POSITIVE, None, None),
+            "e_o": (_POSITIVE, None, None),
+            "e_r": (_POSITIVE, None, None),
+            "g": (_POSITIVE, None, None),
+        }
+        for name, (rule, lo, hi) in checks.items():
+            object.__setattr__(self, name, _check_number(name, getattr(self, name), rule, lo, hi))
+        axis = self.offset_axis
+        try:
+            a = np.asarray(axis, dtype=float).reshape(3)
+        except (TypeError, ValueError):
+            raise ValueError(f"offset_axis={axis!r} is not a 3-vector (allowed: a nonzero finite 3-vector in body axes)") from None
+        if not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
+            raise ValueError(f"offset_axis={axis!r} is not allowed (allowed: a nonzero finite 3-vector in body axes)")
+        object.__setattr__(self, "offset_axis", tuple(float(v) for v in a / np.linalg.norm(a)))
+        if not isinstance(self.electrostatic_in_flight, (bool, np.bool_)):
+            raise ValueError(f"electrostatic_in_flight={self.electrostatic_in_flight!r} is not allowed (allowed: True or False)")
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    def replace(self, **overrides: Any) -> Params:
+        """A copy with ``overrides`` applied; unknown names are a ValueError."""
+        unknown = sorted(set(overrides) - set(self.field_names()))
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {unknown} (allowed: {', '.join(self.field_names())})")
+        return dataclasses.replace(self, **overrides)
+
+    def magnetisation_dir(self) -> np.ndarray:
+        """Unit body-frame magnetisation: the length axis tilted by ``offset_deg`` about
+        ``offset_axis`` (MODEL.md: ``(0, cos phi, sin phi)`` for the width axis)."""
+        k = np.asarray(self.offset_axis)
+        y = np.array([0.0, 1.0, 0.0])
+        phi = math.radians(self.offset_deg)
+        return y * math.cos(phi) + np.cross(k, y) * math.sin(phi) + k * (k @ y) * (1.0 - math.cos(phi))
+
+    def as_attrs(self) -> dict[str, Any]:
+        """Flat netCDF-friendly attributes (SI)."""
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            out[f.name] = list(v) if isinstance(v, tuple) else (int(v) if isinstance(v, bool) else v)
+        return out
+
+
+PRESETS: dict[str, Params] = {
+    # paper Table 1: original robot on paper
+    "paper": Params(mass=1.6071e-7, F_elect=3.2022e-6, mu=0.3, offset_deg=27.0, V_m=2.9e-11, magnetization=15000.0, adhesion_C=3.7148),
+    # paper Table 3: improved robot on aluminum
+    "aluminum": Params(mass=6.94e-8, F_elect=0.0, mu=0.54, offset_deg=0.0, V_m=3.2e-11, magnetization=51835.0, adhesion_C=26.1771),
+}
+
+
+def get_preset(preset: str | Params) -> Params:
+    if isinstance(preset, Params):
+        return preset
+    if preset not in PRESETS:
+        raise ValueError(f"preset={preset!r} is unknown (allowed: {', '.join(sorted(PRESETS))})")
+    return PRESETS[preset]
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Newton and sub-stepping options (tolerances in scaled units, :mod:`tumblemc.units`).
+
+    tol : max-norm of the residual at convergence.
+    max_iter : Newton iterations per solve.
+    max_substep_depth : a failed step is retried as halves down to ``dt / 2**depth``.
+    armijo : sufficient-decrease constant of the line search.
+    min_step : smallest line-search step before a fallback.
+    """
+
+    tol: float = 1e-9
+    max_iter: int = 60
+    max_substep_depth: int = 8
+    armijo: float = 1e-4
+    min_step: float = 1e-10
+
+    def __post_init__(self) -> None:
+        _check_number("tol", self.tol, _POSITIVE)
+        _check_number("max_iter", self.max_iter, "", 1, 10_000)
+        _check_number("max_substep_depth", self.max_substep_depth, "", 0, 30)
+        _check_number("armijo", self.armijo, "", 1e-12, 0.5)
+        _check_number("min_step", self.min_step, "", 1e-16, 0.5)
+
+    def as_array(self) -> np.ndarray:
+        from .kernels import layout as L
+
+        a = np.zeros(L.N_OPT)
+        a[L.O_TOL] = self.tol
+        a[L.O_MAXIT] = self.max_iter
+        a[L.O_MAXDEPTH] = self.max_substep_depth
+        a[L.O_ARMIJO] = self.armijo
+        a[L.O_MINSTEP] = self.min_step
+        return a
+
+
+__all__ = ["Params", "PRESETS", "SolverOptions", "get_preset"]

@@ -1,0 +1,340 @@
+"""One run: validate, nondimensionalise, call the kernels, return an xarray Dataset."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from .kernels import layout as L
+from .kernels.newton import Workspace, make_workspace
+from .kernels.residual import n_unknowns
+from .kernels.stepper import Geometry, empty_record, run
+from .params import Params, SolverOptions, get_preset
+from .results import annotate
+from .shapes import Shape, get_shape
+from .units import LENGTH_M, Units
+
+#: default time step, s: the largest dt whose verdicts and progress ratios match the
+#: finest dt of the convergence study (docs/validation, ``tumblemc validate``).
+DEFAULT_DT = 1e-4
+TORQUE_OPTIONS = ("start", "end")
+
+
+def plane_frame(incline_deg: float) -> dict[str, np.ndarray]:
+    """Plane normal ``n``, contact tangents ``t``, ``o`` and uphill direction ``u``."""
+    th = math.radians(incline_deg)
+    s, c = math.sin(th), math.cos(th)
+    return {
+        "n": np.array([0.0, s, c]),
+        "t": np.array([1.0, 0.0, 0.0]),
+        "o": np.array([0.0, c, -s]),
+        "u": np.array([0.0, -c, s]),
+    }
+
+
+def rot_to_quat(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (scalar first) of a rotation matrix."""
+    tr = np.trace(R)
+    if tr > 0:
+        s = math.sqrt(tr + 1.0) * 2
+        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2
+        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif R[1, 1] > R[2, 2]:
+        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
+    else:
+        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
+    qa = np.array(q)
+    return qa / np.linalg.norm(qa)
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices of quaternions ``q[..., 4]`` (scalar first)."""
+    w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    return np.stack(
+        [
+            np.stack([w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z], -1),
+        ],
+        -2,
+    )
+
+
+@dataclass
+class RunSpec:
+    """Everything the kernel needs for one run (scaled), plus what the API reports."""
+
+    shape: Shape
+    params: Params
+    incline_deg: float
+    field_mT: float
+    freq_hz: float
+    duration_s: float
+    dt: float
+    torque: str
+    units: Units
+    geo: Geometry
+    prm: np.ndarray
+    state0: np.ndarray
+    n_steps: int
+    record_every: int
+    solver: SolverOptions
+
+    @property
+    def h(self) -> float:
+        return self.dt / self.units.time
+
+
+def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
+    if value not in allowed:
+        raise ValueError(f"{name}={value!r} is not allowed (allowed: {', '.join(allowed)})")
+    return str(value)
+
+
+def prepare(
+    shape: str | Shape = "cuboid",
+    preset: str | Params = "paper",
+    incline_deg: float = 0.0,
+    field_mT: float = 20.0,
+    freq_hz: float = 1.0,
+    duration_s: float = 2.0,
+    dt: float | None = None,
+    *,
+    torque: str = "start",
+    record_every: int = 1,
+    solver: SolverOptions | None = None,
+    **overrides: Any,
+) -> RunSpec:
+    """Validate the inputs of :func:`simulate` and build the scaled kernel data."""
+    from .params import _check_number
+
+    shp = get_shape(shape)
+    params = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
+    incline_deg = _check_number("incline_deg", incline_deg, "", -89.0, 89.0)
+    field_mT = _check_number("field_mT", field_mT, "", 0.0, 10_000.0)
+    freq_hz = _check_number("freq_hz", freq_hz, "", 0.0, 10_000.0)
+    duration_s = _check_number("duration_s", duration_s, "", 0.0, 1e4)
+    dt = DEFAULT_DT if dt is None else _check_number("dt", dt, "", 1e-9, 1e-1)
+    torque = _check_choice("torque", torque, TORQUE_OPTIONS)
+    record_every = int(_check_number("record_every", record_every, "", 1, 1e9))
+    solver = solver or SolverOptions()
+    n_steps = int(round(duration_s / dt))
+    if n_steps < 1:
+        raise ValueError(f"duration_s={duration_s!r} is shorter than one step dt={dt!r} (allowed: duration_s >= dt)")
+
+    u = Units(mass=params.mass, g=params.g)
+    fr = plane_frame(incline_deg)
+    prm = np.zeros(L.N_PRM)
+    prm[L.P_MASS] = 1.0
+    prm[L.P_G] = 1.0
+    prm[L.P_FELECT] = params.F_elect / u.force
+    prm[L.P_MU] = params.mu
+    prm[L.P_ET] = params.e_t
+    prm[L.P_EO] = params.e_o
+    prm[L.P_ER] = params.e_r / u.length
+    prm[L.P_LINEFRAC] = params.line_contact_fraction
+    prm[L.P_ADHC] = params.adhesion_C * u.area / u.force
+    prm[L.P_TORQ] = params.V_m * params.magnetization * field_mT * 1e-3 / u.torque
+    prm[L.P_FREQ] = freq_hz * u.time
+    prm[L.P_ELECT_FLIGHT] = 1.0 if params.electrostatic_in_flight else 0.0
+    prm[L.P_TORQUE_END] = 1.0 if torque == "end" else 0.0
+    prm[L.P_N : L.P_N + 3] = fr["n"]
+    prm[L.P_T : L.P_T + 3] = fr["t"]
+    prm[L.P_O : L.P_O + 3] = fr["o"]
+    prm[L.P_U : L.P_U + 3] = fr["u"]
+    prm[L.P_EB : L.P_EB + 3] = params.magnetisation_dir()
+    prm[L.P_IB : L.P_IB + 9] = (shp.inertia(params.mass) / u.inertia).ravel()
+    prm[L.P_FIELD_ON] = 1.0 if prm[L.P_TORQ] > 0.0 else 0.0
+
+    # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
+    R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
+    state0 = np.zeros(13)
+    state0[0:3] = shp.rest_height() / LENGTH_M * fr["n"]
+    state0[3:7] = rot_to_quat(R0)
+    return RunSpec(shp, params, incline_deg, field_mT, freq_hz, duration_s, dt, torque, u, shp.geometry(), prm, state0, n_steps, record_every, solver)
+
+
+def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = None) -> tuple[np.ndarray, int, int]:
+    """Run the kernel for ``spec``; returns ``(rec, status, failed_steps)`` (scaled)."""
+    n = n_unknowns(spec.geo.pstart)
+    ws, ws6 = workspaces or (make_workspace(n), make_workspace(6))
+    rec = empty_record(spec.n_steps, spec.record_every)
+    z = np.zeros(n)
+    state = spec.state0.copy()
+    status, failed = run(
+        spec.geo, spec.prm, state, 0.0, spec.h, spec.n_steps, spec.record_every, spec.solver.as_array(), rec, ws, ws6, z, np.zeros(6), np.zeros(n)
+    )
+    return rec, int(status), int(failed)
+
+
+def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.Dataset:
+    """Convert a kernel record to an annotated SI Dataset."""
+    u = spec.units
+    rows = rec
+    if status != L.ST_OK:  # keep the rows that were written
+        last = int(np.max(np.nonzero(rows[:, L.R_T])[0], initial=0))
+        rows = rows[: last + 1]
+    t = rows[:, L.R_T] * u.time
+    pos = rows[:, L.R_X : L.R_X + 3] * u.length
+    uphill = plane_frame(spec.incline_deg)["u"]
+    progress = (pos - pos[0]) @ uphill
+    fr = plane_frame(spec.incline_deg)
+    ang = 2 * np.pi * spec.freq_hz * t
+    c, s = np.cos(ang), np.sin(ang)
+    ub = fr["u"]
+    field = spec.field_mT * 1e-3 * np.stack([np.full_like(t, ub[0]), c * ub[1] - s * ub[2], s * ub[1] + c * ub[2]], -1)
+    xyz = ("time", "xyz")
+    ds = xr.Dataset(
+        {
+            "progress": ("time", progress),
+            "position": (xyz, pos),
+            "quaternion": (("time", "quat"), rows[:, L.R_Q : L.R_Q + 4]),
+            "velocity": (xyz, rows[:, L.R_V : L.R_V + 3] * u.velocity),
+            "omega": (xyz, rows[:, L.R_W : L.R_W + 3] / u.time),
+            "normal_force": ("time", rows[:, L.R_LN] * u.force),
+            "adhesion_force": ("time", rows[:, L.R_ADH] * u.force),
+            "contact_area": ("time", rows[:, L.R_AREA] * u.area),
+            "contact_mode": ("time", rows[:, L.R_MODE].astype(np.int8)),
+            "slip_speed": ("time", rows[:, L.R_SLIP] * u.velocity),
+            "ecp": (xyz, rows[:, L.R_ECP : L.R_ECP + 3] * u.length),
+            "newton_iterations": ("time", rows[:, L.R_NIT].astype(np.int32)),
+            "residual": ("time", rows[:, L.R_RES]),
+            "fallbacks": ("time", rows[:, L.R_FALLBACK].astype(np.int32)),
+            "substeps": ("time", rows[:, L.R_SUB].astype(np.int32)),
+            "penetration": ("time", rows[:, L.R_PEN] * u.length),
+            "failed": ("time", rows[:, L.R_FAIL].astype(np.int32)),
+            "field": (xyz, field),
+        },
+        coords={"time": t, "xyz": ["x", "y", "z"], "quat": ["w", "x", "y", "z"]},
+    )
+    annotate(ds)
+    ds.attrs.update(
+        {
+            "title": f"tumblemc run: {spec.shape.name} robot",
+            "Conventions": "CF-1.10",
+            "source": f"tumblemc {__version__}",
+            "tumblemc_version": __version__,
+            "shape": spec.shape.name,
+            "incline_deg": spec.incline_deg,
+            "field_mT": spec.field_mT,
+            "freq_hz": spec.freq_hz,
+            "duration_s": spec.duration_s,
+            "dt": spec.dt,
+            "torque": spec.torque,
+            "record_every": spec.record_every,
+            "hull_perimeter": spec.shape.hull_perimeter,
+            "ideal_speed": spec.shape.hull_perimeter * spec.freq_hz,
+            "status": int(status),
+            "failed_steps": int(failed),
+            "n_steps": spec.n_steps,
+            **{f"solver_{k}": v for k, v in vars(spec.solver).items()},
+            **spec.params.as_attrs(),
+        }
+    )
+    return ds
+
+
+def simulate(
+    shape: str | Shape = "cuboid",
+    preset: str | Params = "paper",
+    incline_deg: float = 0.0,
+    field_mT: float = 20.0,
+    freq_hz: float = 1.0,
+    duration_s: float = 2.0,
+    dt: float | None = None,
+    *,
+    torque: str = "start",
+    record_every: int = 1,
+    solver: SolverOptions | None = None,
+    **overrides: Any,
+) -> xr.Dataset:
+    """Simulate one tumbling robot and return its time series.
+
+    Parameters
+    ----------
+    shape : str or Shape
+        ``"cuboid"`` (more in :mod:`tumblemc.shapes`).
+    preset : str or Params
+        ``"paper"`` (Table 1) or ``"aluminum"`` (Table 3).
+    incline_deg : float
+        Incline of the substrate, degrees (rotation about world x).
+    field_mT, freq_hz : float
+        Rotating field magnitude (mT) and frequency (Hz); 0 mT switches the field off.
+    duration_s : float
+        Simulated time, s.
+    dt : float, optional
+        Time step, s; ``None`` takes :data:`DEFAULT_DT` (set by the convergence study).
+    torque : {"start", "end"}
+        Where in the step the magnetic torque is evaluated: ``"start"`` (default, accurate)
+        or ``"end"`` (the paper's choice; numerically damped, see MODEL.md "Numerics").
+    record_every : int
+        Record every k-th step (iteration counts are summed, penetration is maxed).
+    solver : SolverOptions, optional
+    **overrides
+        Any :class:`~tumblemc.params.Params` field by name (``mu=0.4``, ``mass=...``).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimension ``time``; variables and units in :mod:`tumblemc.results`; attrs hold
+        every parameter in SI, the options and the package version.
+    """
+    spec = prepare(shape, preset, incline_deg, field_mT, freq_hz, duration_s, dt, torque=torque, record_every=record_every, solver=solver, **overrides)
+    rec, status, failed = run_spec(spec)
+    return to_dataset(spec, rec, status, failed)
+
+
+def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float = 0.5, min_window_periods: float = 1.0) -> dict[str, Any]:
+    """Summary of a run measured after the transient.
+
+    Speeds and progress are measured over ``[transient_periods / f, t_end]`` (with phi > 0
+    the robot first tips backwards, so the start depends on the initial field phase).
+
+    Returns
+    -------
+    dict
+        ``mean_speed`` (uphill, m/s), ``ideal_speed`` (hull perimeter x f, m/s),
+        ``progress_ratio``, ``climbed`` (``progress_ratio >= threshold``),
+        ``max_penetration`` (m), ``failed_steps``, ``mean_newton_iterations``,
+        ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``.
+    """
+    f = float(ds.attrs["freq_hz"])
+    if not f > 0:
+        raise ValueError("summarize needs a rotating field (freq_hz > 0)")
+    t = ds["time"].values
+    t0 = transient_periods / f
+    window = t[-1] - t0
+    if window < min_window_periods / f - 1e-9:
+        raise ValueError(
+            f"run too short: duration {t[-1]:.6g} s leaves {window:.6g} s after the transient of "
+            f"{t0:.6g} s (allowed: at least {min_window_periods} field period(s) = {min_window_periods / f:.6g} s)"
+        )
+    i0 = int(np.searchsorted(t, t0 - 1e-12))
+    prog = ds["progress"].values
+    dur = t[-1] - t[i0]
+    mean_speed = (prog[-1] - prog[i0]) / dur
+    ideal = float(ds.attrs["ideal_speed"])
+    ratio = mean_speed / ideal
+    n_steps = max(int(ds.attrs["n_steps"]), 1)
+    return {
+        "mean_speed": float(mean_speed),
+        "ideal_speed": ideal,
+        "progress_ratio": float(ratio),
+        "climbed": bool(ratio >= threshold),
+        "max_penetration": float(ds["penetration"].max()),
+        "failed_steps": int(ds["failed"].sum()),
+        "mean_newton_iterations": float(ds["newton_iterations"].sum()) / n_steps,
+        "mean_slip_speed": float(ds["slip_speed"].values[i0:].mean()),
+        "substeps": int(ds["substeps"].sum()),
+        "fallbacks": int(ds["fallbacks"].sum()),
+        "status": int(ds.attrs["status"]),
+    }
