@@ -22,7 +22,7 @@ from .residual import residual
 
 Workspace = namedtuple(
     "Workspace",
-    ["F", "J", "A", "d", "zt", "Ft", "g", "fbb", "isfb", "piv", "v3", "m33", "q4", "e43", "Jt"],
+    ["F", "J", "A", "d", "zt", "Ft", "g", "fbb", "isfb", "piv", "v3", "m33", "q4", "e43", "Jt", "Ft_isfb"],
 )
 
 
@@ -32,7 +32,7 @@ def make_workspace(n: int) -> Workspace:
     return Workspace(
         f(n), f((n, n)), f((n, n)), f(n), f(n), f(n), f(n), f(n),
         np.zeros(n, np.int64), np.zeros(n, np.int64),
-        f((16, 3)), f((8, 3, 3)), f((2, 4)), f((2, 4, 3)), f((n, n)),
+        f((16, 3)), f((8, 3, 3)), f((2, 4)), f((2, 4, 3)), f((n, n)), np.zeros(n, np.int64),
     )  # fmt: skip
 
 
@@ -117,22 +117,44 @@ def _lm_direction(J, F, g, A, piv, d, n, nu):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n):  # type: ignore[no-untyped-def]
-    """Armijo backtracking along ``d``; on success ``ws.zt`` holds the new point."""
+def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project):  # type: ignore[no-untyped-def]
+    """Armijo backtracking along ``d``; on success ``ws.zt`` holds the new point.
+
+    With ``project``, trial points are projected onto ``z_i >= 0`` for the complementarity variables
+    (``ws.isfb[i] != 0``: sigma, l_i, l_s, lam_n), where every solution lies. Without it
+    the iterates can stall at spurious stationary points of the merit with sigma < 0
+    (friction along the slip, which the dissipation rows alone admit), e.g. on sliding
+    landings. Sufficient decrease is measured along the projected displacement
+    (projected Newton / Levenberg-Marquardt for box-constrained equations, Kanzow,
+    Yamashita & Fukushima 2004). Projection slows convergence at sticking contacts
+    (sigma = 0), so the stepper tries it only after the plain iteration failed.
+    """
     t = 1.0
     c = opts[O_ARMIJO]
     while t >= opts[O_MINSTEP]:
+        projected = False
         for i in range(n):
-            ws.zt[i] = z[i] + t * d[i]
-        th = residual(ws.zt, sc, prm, ctype, cdata, pstart, ws.Ft, ws.Jt, False, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
-        if th <= theta + c * t * slope:
+            v = z[i] + t * d[i]
+            if project and ws.isfb[i] != 0 and v < 0.0:
+                v = 0.0
+                projected = True
+            ws.zt[i] = v
+        if projected:
+            dec = 0.0
+            for i in range(n):
+                dec += ws.g[i] * (ws.zt[i] - z[i])
+            target = theta + c * dec if dec < 0.0 else theta * (1.0 - c * t)
+        else:
+            target = theta + c * t * slope
+        th = residual(ws.zt, sc, prm, ctype, cdata, pstart, ws.Ft, ws.Jt, False, ws.Ft_isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+        if th <= target:
             return True, th
         t *= 0.5
     return False, theta
 
 
 @jit
-def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out):  # type: ignore[no-untyped-def]
+def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ignore[no-untyped-def]
     """Solve ``Phi(z) = 0`` in place from the warm start ``z``.
 
     Parameters
@@ -146,6 +168,8 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out):  # type: ignore[no-u
         ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``.
     out : int64[3]
         Receives ``(iterations, fallbacks, 0)``.
+    project : bool
+        Keep the complementarity variables >= 0 in the line search (see ``_line_search``).
 
     Returns
     -------
@@ -206,7 +230,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out):  # type: ignore[no-u
                 slope += g[i] * d[i]
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
-                accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n)
+                accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project)
         # 2. Levenberg-Marquardt
         if not accepted:
             fallbacks += 1
@@ -216,12 +240,12 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out):  # type: ignore[no-u
                 for i in range(n):
                     slope += g[i] * d[i]
                 if slope < 0.0:
-                    accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n)
+                    accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project)
         # 3. steepest descent
         if not accepted:
             for i in range(n):
                 d[i] = -g[i] / max(gnorm, 1e-300)
-            accepted, th_new = _line_search(z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, ws, opts, n)
+            accepted, th_new = _line_search(z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project)
         if not accepted:
             status = ST_LINESEARCH
             break

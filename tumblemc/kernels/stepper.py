@@ -325,6 +325,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     Eqn = np.zeros((4, 3))
     Jth = np.zeros((3, 3))
     iters = np.zeros(3, np.int64)
+    zwarm = np.zeros(n)
+    zguess = np.zeros(n)
     touching = np.zeros(K, np.int64)
     maxdepth = int(opts[O_MAXDEPTH])
 
@@ -359,7 +361,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             # --- free-flight prediction
             for i in range(6):
                 z6[i] = z[i]
-            st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters)
+            st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False)
             acc_nit += iters[0]
             flight = False
             if st6 == ST_OK:
@@ -397,26 +399,40 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     if touching[kp] == 0:
                         _landing_guess(z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL)
                     off += B_FIXED + mk
-                st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters)
-                acc_nit += iters[0]
-                acc_fb += iters[1]
-                if st != ST_OK:
-                    # the contact feature changed within the step (a face slapping down, an
-                    # edge passing over): retry from a fresh guess at the predicted end pose
-                    for i in range(n):
-                        z[i] = zsave[i]
-                    quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
-                    quat_to_rot(qn, R)
-                    for i in range(3):
-                        tmp3[i] = state[i] + hc * state[7 + i]
-                    off = 6
-                    for kp in range(K):
-                        mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                        _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, RESTART_TOL)
-                        off += B_FIXED + mk
-                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters)
+                # deterministic strategies, cheapest first: warm start, then a fresh contact
+                # guess at the predicted end pose (the feature changed within the step: a
+                # face slapping down, an edge passing over), each plain, then projected
+                st = ST_NAN
+                res = math.inf
+                for attempt in range(4):
+                    if attempt == 2:
+                        for i in range(n):
+                            z[i] = zsave[i]
+                        quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
+                        quat_to_rot(qn, R)
+                        for i in range(3):
+                            tmp3[i] = state[i] + hc * state[7 + i]
+                        off = 6
+                        for kp in range(K):
+                            mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                            _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, RESTART_TOL)
+                            off += B_FIXED + mk
+                        for i in range(n):
+                            zguess[i] = z[i]
+                    elif attempt == 1:
+                        for i in range(n):
+                            z[i] = zwarm[i]
+                    elif attempt == 3:
+                        for i in range(n):
+                            z[i] = zguess[i]
+                    else:
+                        for i in range(n):
+                            zwarm[i] = z[i]
+                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters, attempt % 2 == 1)
                     acc_nit += iters[0]
-                    acc_fb += iters[1] + 1
+                    acc_fb += iters[1] + (1 if attempt > 0 else 0)
+                    if st == ST_OK:
+                        break
                 if st != ST_OK and depth < maxdepth:
                     for i in range(n):
                         z[i] = zsave[i]

@@ -1,0 +1,143 @@
+"""Command line (``tumblemc.cli``) and run figures (``tumblemc.plotting``)."""
+
+from __future__ import annotations
+
+import sys
+import types
+
+import numpy as np
+import pytest
+import xarray as xr
+from matplotlib.figure import Figure
+
+import tumblemc
+from tumblemc.cli import format_table, main, netcdf_ready, parse_overrides, parse_value
+from tumblemc.plotting import _strip_offsets, plot_run, side_view_outline
+from tumblemc.shapes import get_shape
+
+SHORT = "0.05"
+
+
+@pytest.fixture(scope="module")
+def short_run() -> xr.Dataset:
+    return tumblemc.simulate(duration_s=float(SHORT))
+
+
+def test_simulate_writes_netcdf_and_png(tmp_path, capsys):
+    out = tmp_path / "run.nc"
+    sets = ["--set", "mu=0.35", "--set", "electrostatic_in_flight=false"]
+    rc = main(["simulate", "--duration-s", SHORT, "--out", str(out), "--plot", *sets])
+    captured = capsys.readouterr()
+    assert rc == 0, captured.err
+    assert "wrote" in captured.out and "status" in captured.out
+    with xr.open_dataset(out, engine="netcdf4") as ds:
+        assert ds.sizes["time"] == 501
+        for name in ds.data_vars:
+            assert ds[name].attrs.get("units"), name
+            assert ds[name].attrs.get("long_name"), name
+        assert float(ds.attrs["mu"]) == pytest.approx(0.35)
+        assert int(ds.attrs["electrostatic_in_flight"]) == 0
+        assert np.asarray(ds.attrs["offset_axis"]).shape == (3,)
+        assert ds.attrs["torque"] == "start"
+    png = out.with_suffix(".png")
+    assert png.stat().st_size > 10_000
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("argv", "field"),
+    [
+        (["--set", "mu=-1"], "mu"),
+        (["--set", "foo=1"], "foo"),
+        (["--preset", "nope"], "preset"),
+        (["--set", "mu"], "mu"),
+        (["--set", "offset_deg=abc"], "offset_deg"),
+        (["--duration-s", "0"], "duration_s"),
+    ],
+)
+def test_simulate_bad_value_exits_2(tmp_path, capsys, argv, field):
+    out = tmp_path / "bad.nc"
+    rc = main(["simulate", "--duration-s", SHORT, *argv, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.startswith("error: ")
+    assert field in err
+    assert "Traceback" not in err
+    assert not out.exists()
+
+
+def test_usage_errors_and_version(capsys):
+    assert main(["simulate", "--torque", "middle"]) == 2
+    assert "--torque" in capsys.readouterr().err
+    assert main([]) == 2
+    capsys.readouterr()
+    assert main(["--version"]) == 0
+    assert tumblemc.__version__ in capsys.readouterr().out
+
+
+def test_validate_and_bench_delegate(monkeypatch, tmp_path):
+    calls: list[tuple] = []
+    val = types.ModuleType("tumblemc.validation")
+    val.run_validation = lambda out_dir, quick: calls.append(("validate", out_dir, quick)) or 3  # type: ignore[attr-defined]
+    bench = types.ModuleType("tumblemc.bench")
+    bench.main = lambda args: calls.append(("bench", list(args))) or 0  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "tumblemc.validation", val)
+    monkeypatch.setitem(sys.modules, "tumblemc.bench", bench)
+    assert main(["validate", "--quick", "--out", str(tmp_path)]) == 3
+    assert main(["validate"]) == 3
+    assert main(["bench", "--quick", "--repeats", "3"]) == 0
+    assert main(["bench", "--help"]) == 0
+    assert calls == [
+        ("validate", str(tmp_path), True),
+        ("validate", "validation", False),
+        ("bench", ["--quick", "--repeats", "3"]),
+        ("bench", ["--help"]),
+    ]
+
+
+def test_parse_helpers():
+    assert parse_value("true") is True and parse_value("False") is False
+    assert parse_value("0.4") == 0.4 and parse_value("1e-3") == 1e-3
+    assert parse_value("1,0,0") == (1.0, 0.0, 0.0)
+    assert parse_value("abc") == "abc"
+    assert parse_overrides(["mu=0.4", "offset_deg = 10"]) == {"mu": 0.4, "offset_deg": 10.0}
+    table = format_table({"a": 1.0, "long_name": True})
+    assert table.splitlines() == ["a          1", "long_name  True"]
+
+
+def test_netcdf_ready_does_not_touch_input(short_run):
+    ds = short_run.copy()
+    ds.attrs["flag"] = True
+    ds.attrs["vec"] = [1.0, 2.0]
+    safe = netcdf_ready(ds)
+    assert safe.attrs["flag"] == 1 and isinstance(safe.attrs["vec"], np.ndarray)
+    assert ds.attrs["flag"] is True and isinstance(ds.attrs["vec"], list)
+
+
+def test_side_view_outline_at_rest(short_run):
+    shape = get_shape("cuboid")
+    s, h = side_view_outline(short_run, shape, 0)
+    half_len = np.ptp(shape.outline[:, 0]) / 2
+    height = np.ptp(shape.outline[:, 1])
+    assert np.allclose(np.sort(np.unique(np.round(s, 12))), [-half_len, half_len])
+    assert h.min() == pytest.approx(0.0, abs=1e-12) and h.max() == pytest.approx(height)
+    s_end, h_end = side_view_outline(short_run, None, -1)
+    assert s_end.shape == s.shape and h_end.min() > -1e-9
+
+
+def test_strip_layouts():
+    box = (np.array([-4e-4, 4e-4, 4e-4, -4e-4]), np.zeros(4))
+    moved = [(box[0] + k * 5e-5, box[1]) for k in range(4)]  # slow: spread uphill
+    off, layout, extra = _strip_offsets(moved, 8e-4)
+    assert layout == "spread" and extra > 0 and np.all(np.diff(off) > 0)
+    far = [(box[0] + k * 1e-3, box[1]) for k in range(4)]  # already apart
+    assert _strip_offsets(far, 8e-4)[1] == "true"
+    slide = [(box[0] - k * 1e-2, box[1]) for k in range(4)]  # fast slide downhill
+    assert _strip_offsets(slide, 8e-4)[1] == "slots"
+
+
+def test_plot_run_returns_figure(short_run, tmp_path):
+    fig = plot_run(short_run, tmp_path / "fig.png", snapshots=5)
+    assert isinstance(fig, Figure)
+    assert len(fig.axes) >= 4  # progress, contact, adhesion twin, strip (+ colorbar)
+    assert (tmp_path / "fig.png").stat().st_size > 0

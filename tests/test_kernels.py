@@ -1,0 +1,396 @@
+"""The Numba residual kernel against an independent plain-numpy twin (tests/naive.py).
+
+1. ``F`` of :func:`tumblemc.kernels.residual.residual` equals the naive residual on random
+   states (three geometries, torque at the start and at the end of the step, random
+   incline, inertia, step and complementarity variables, some of them exactly zero).
+2. Its analytic Jacobian equals central finite differences of the kernel's and of the
+   naive ``F`` away from Fischer-Burmeister kinks.
+3. :func:`tumblemc.kernels.residual.fb` against an 80-digit reference, also where the
+   textbook formula cancels, and its sign properties.
+4. At exact FB kinks (``a = b = 0``) the Jacobian row is an element of the generalised
+   Jacobian, ``(1 - alpha) grad a + (1 - beta) grad b`` with ``alpha^2 + beta^2 <= 1``,
+   and it is the De Luca-Facchinei-Kanzow element the kernel documents.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from tests.naive import block_index, fb_exact, fb_plain, naive_model, naive_residual
+from tumblemc.kernels import layout as L
+from tumblemc.kernels.newton import make_workspace
+from tumblemc.kernels.residual import fb, n_unknowns, residual
+
+# ---- tolerances (named, in one place) --------------------------------------------------
+F_RTOL = 1e-12  # kernel F vs naive F, relative to 1 + max|F|; seen: <= 2e-15
+FD_STEP = 1e-6  # central-difference step on the (O(1), scaled) unknowns
+FD_RTOL = 1e-6  # max_j |J_ij - Jfd_ij| <= FD_RTOL * (1 + max_j |J_ij| + 1e-16 |F_i| / FD_STEP); seen: <= 4e-9
+KINK_MIN = 1e-2  # FD points keep every FB pair at least this far from (0, 0)
+FB_RTOL = 4e-16  # fb vs the correctly rounded value: a few ulps
+GJ_TOL = 1e-9  # generalised-Jacobian membership checks
+
+SETTINGS = settings(
+    max_examples=25,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow],
+)
+
+
+# ---- geometries ---------------------------------------------------------------------------
+
+
+def _planes(normals, ds):  # type: ignore[no-untyped-def]
+    cd = np.zeros((len(ds), 4))
+    for i, (nb, d) in enumerate(zip(normals, ds)):
+        nb = np.asarray(nb, dtype=float)
+        cd[i, :3] = nb / np.linalg.norm(nb)
+        cd[i, 3] = d
+    return cd
+
+
+def cuboid(hx=2.0, hy=4.0, hz=0.5, centre=(0.0, 0.0, 0.0)):  # type: ignore[no-untyped-def]
+    """Six half-spaces of a box with half-dimensions hx, hy, hz about ``centre``."""
+    c = np.asarray(centre, dtype=float)
+    normals = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+    halves = [hx, hx, hy, hy, hz, hz]
+    ds = [hv + np.dot(nb, c) for nb, hv in zip(normals, halves)]
+    return _planes(normals, ds)
+
+
+def geom_cuboid():  # type: ignore[no-untyped-def]
+    cdata = cuboid()
+    return np.zeros(6, np.int64), cdata, np.array([0, 6], np.int64)
+
+
+def geom_curved():  # type: ignore[no-untyped-def]
+    """The curved robot's hull: x faces, outer arc (C_CYL_X), two radial ends, inner chord."""
+    zc, r_out, r_in, half = 11.8, 12.5, 11.0, math.radians(25.0)
+    s, c = math.sin(half), math.cos(half)
+    planes = _planes(
+        [(1, 0, 0), (-1, 0, 0), (0, c, s), (0, -c, s), (0, 0, 1)],
+        [2.0, 2.0, s * zc, s * zc, zc - r_in * c],
+    )
+    cdata = np.zeros((6, 4))
+    cdata[:2] = planes[:2]
+    cdata[2] = (0.0, zc, r_out, 0.0)
+    cdata[3:] = planes[2:]
+    ctype = np.array([0, 0, L.C_CYL_X, 0, 0, 0], np.int64)
+    return ctype, cdata, np.array([0, 6], np.int64)
+
+
+def geom_two_pieces():  # type: ignore[no-untyped-def]
+    """A bar and a slanted block (non-axis normals): pstart = [0, 6, 12]."""
+    bar = cuboid(1.5, 4.0, 0.75)
+    spike = _planes(
+        [(1, 0, 0), (-1, 0, 0), (0, 0.6, 0.8), (0, -0.6, 0.8), (0, 0.3, -1.0), (0.2, 1.0, 0.1)],
+        [1.5, 1.5, 2.5, 2.5, 0.75, 3.0],
+    )
+    return np.zeros(12, np.int64), np.vstack([bar, spike]), np.array([0, 6, 12], np.int64)
+
+
+GEOMETRIES = {"cuboid": geom_cuboid, "curved": geom_curved, "two_pieces": geom_two_pieces}
+
+
+# ---- random problems ------------------------------------------------------------------------
+
+
+def incline_frame(theta):  # type: ignore[no-untyped-def]
+    s, c = math.sin(theta), math.cos(theta)
+    return np.array([0.0, s, c]), np.array([1.0, 0.0, 0.0]), np.array([0.0, c, -s])
+
+
+def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-untyped-def]
+    """A random step: returns (z, sc, prm, ctype, cdata, pstart)."""
+    rng = np.random.default_rng(seed)
+    ctype, cdata, pstart = GEOMETRIES[geom]()
+    nrm, tt, oo = incline_frame(theta)
+
+    prm = np.zeros(L.N_PRM)
+    prm[L.P_MASS] = rng.uniform(0.5, 2.0)
+    prm[L.P_G] = 1.0
+    prm[L.P_MU] = rng.uniform(0.1, 1.0)
+    prm[L.P_ET] = rng.uniform(0.5, 2.0)
+    prm[L.P_EO] = rng.uniform(0.5, 2.0)
+    prm[L.P_ER] = rng.uniform(0.05, 2.0)
+    prm[L.P_TORQUE_END] = 1.0 if torque_end else 0.0
+    prm[L.P_N : L.P_N + 3] = nrm
+    prm[L.P_T : L.P_T + 3] = tt
+    prm[L.P_O : L.P_O + 3] = oo
+    prm[L.P_U : L.P_U + 3] = (0.0, -math.cos(theta), math.sin(theta))
+    eb = rng.normal(size=3)
+    prm[L.P_EB : L.P_EB + 3] = eb / np.linalg.norm(eb)
+    A = rng.normal(size=(3, 3))
+    Ib = A @ A.T + rng.uniform(0.2, 2.0) * np.eye(3)  # symmetric positive definite
+    prm[L.P_IB : L.P_IB + 9] = Ib.ravel()
+    prm[L.P_FIELD_ON] = 1.0
+
+    sc = np.zeros(L.N_SC)
+    sc[L.S_X : L.S_X + 3] = rng.normal(size=3) * 2.0
+    q = rng.normal(size=4)
+    sc[L.S_Q : L.S_Q + 4] = q / np.linalg.norm(q)
+    sc[L.S_V : L.S_V + 3] = rng.normal(size=3)
+    sc[L.S_W : L.S_W + 3] = rng.normal(size=3) * 2.0
+    sc[L.S_H] = h
+    sc[L.S_FEXT : L.S_FEXT + 3] = rng.normal(size=3)
+    sc[L.S_TM : L.S_TM + 3] = rng.normal(size=3)
+    sc[L.S_BEND : L.S_BEND + 3] = rng.normal(size=3)
+
+    n = n_unknowns(pstart)
+    z = np.zeros(n)
+    z[0:3] = rng.normal(size=3)
+    z[3:6] = rng.normal(size=3) * 2.0
+    for blk in block_index(pstart):
+        a1 = sc[L.S_X : L.S_X + 3] + rng.normal(size=3) * 3.0
+        z[blk["a1"] : blk["a1"] + 3] = a1
+        z[blk["a2"] : blk["a2"] + 3] = a1 + rng.normal(size=3)
+        for key in ("lt", "lo", "lr"):
+            z[blk[key]] = rng.normal()
+        for row in [blk["sig"], *blk["l"], blk["ls"], blk["ln"]]:
+            z[row] = 0.0 if rng.random() < p_zero else rng.uniform(0.0, 3.0)
+    return z, sc, prm, ctype, cdata, pstart
+
+
+def kernel(z, sc, prm, ctype, cdata, pstart, want_J=True):  # type: ignore[no-untyped-def]
+    """Run the kernel on fresh workspaces; returns (F, J, theta)."""
+    ws = make_workspace(z.size)
+    theta = residual(z, sc, prm, ctype, cdata, pstart, ws.F, ws.J, want_J, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    return ws.F.copy(), ws.J.copy(), theta
+
+
+def fd_jacobian(fun, z, step=FD_STEP):  # type: ignore[no-untyped-def]
+    n = z.size
+    Jfd = np.empty((n, n))
+    for j in range(n):
+        zp = z.copy()
+        zm = z.copy()
+        zp[j] += step
+        zm[j] -= step
+        Jfd[:, j] = (fun(zp) - fun(zm)) / (2.0 * step)
+    return Jfd
+
+
+def fb_rows(pstart):  # type: ignore[no-untyped-def]
+    rows = []
+    for blk in block_index(pstart):
+        rows += [blk["sig"], *blk["l"], blk["ls"], blk["ln"]]
+    return rows
+
+
+problem_args = dict(
+    seed=st.integers(0, 2**32 - 1),
+    torque_end=st.booleans(),
+    theta=st.floats(0.0, 1.3),
+    h=st.floats(1e-3, 1.0),
+)
+
+
+# ---- 1. residual -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("geom", sorted(GEOMETRIES))
+@SETTINGS
+@given(p_zero=st.sampled_from([0.0, 0.3, 1.0]), **problem_args)
+def test_residual_matches_naive(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-untyped-def]
+    args = make_problem(geom, seed, torque_end, theta, h, p_zero)
+    Fk, _, theta_k = kernel(*args, want_J=True)
+    Fk_nojac, _, theta_nojac = kernel(*args, want_J=False)
+    Fn = naive_residual(*args)
+    scale = 1.0 + np.abs(Fn).max()
+    err = np.abs(Fk - Fn)
+    assert err.max() <= F_RTOL * scale, f"rows {np.flatnonzero(err > F_RTOL * scale)}: kernel {Fk} naive {Fn}"
+    np.testing.assert_array_equal(Fk, Fk_nojac)
+    assert theta_k == theta_nojac
+    assert math.isclose(theta_k, 0.5 * float(Fn @ Fn), rel_tol=1e-12, abs_tol=1e-300)
+
+
+def test_residual_hand_checked_state():
+    """Identity pose at the origin, at rest, all unknowns zero: Phi = (-F_ext, -T_m, 0, n, 0...)."""
+    z, sc, prm, ctype, cdata, pstart = make_problem("cuboid", 0, False, 0.3, 0.1, 0.0)
+    sc[L.S_X : L.S_X + 3] = 0.0
+    sc[L.S_Q : L.S_Q + 4] = (1.0, 0.0, 0.0, 0.0)
+    sc[L.S_V : L.S_V + 3] = 0.0
+    sc[L.S_W : L.S_W + 3] = 0.0
+    z[:] = 0.0
+    Fk, _, _ = kernel(z, sc, prm, ctype, cdata, pstart)
+    expect = np.zeros(24)
+    expect[0:3] = -sc[L.S_FEXT : L.S_FEXT + 3]
+    expect[3:6] = -sc[L.S_TM : L.S_TM + 3]
+    expect[9:12] = prm[L.P_N : L.P_N + 3]  # sum l_i N_i + n at the a2 slots
+    np.testing.assert_array_equal(Fk, expect)
+    np.testing.assert_array_equal(naive_residual(z, sc, prm, ctype, cdata, pstart), expect)
+    assert n_unknowns(pstart) == 24
+
+
+# ---- 2. Jacobian against finite differences -------------------------------------------------
+
+
+def _check_jacobian(J, Jfd, F, label):  # type: ignore[no-untyped-def]
+    row_scale = 1.0 + np.abs(J).max(axis=1) + np.abs(F) * 1e-16 / FD_STEP
+    err = np.abs(J - Jfd).max(axis=1)
+    bad = np.flatnonzero(err > FD_RTOL * row_scale)
+    assert bad.size == 0, f"{label}: rows {bad.tolist()} err {err[bad]} scale {row_scale[bad]}"
+
+
+@pytest.mark.parametrize("geom", sorted(GEOMETRIES))
+@SETTINGS
+@given(p_zero=st.sampled_from([0.0, 0.3]), **problem_args)
+def test_jacobian_matches_finite_differences(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-untyped-def]
+    args = make_problem(geom, seed, torque_end, theta, max(h, 0.01), p_zero)
+    z, rest = args[0], args[1:]
+    pairs = naive_model(*args)["pairs"]
+    assume(min(math.hypot(a, b) for a, b in pairs.values()) > KINK_MIN)
+    Fk, Jk, _ = kernel(*args)
+    Jfd_kernel = fd_jacobian(lambda zz: kernel(zz, *rest, want_J=False)[0], z)
+    _check_jacobian(Jk, Jfd_kernel, Fk, "kernel J vs FD of kernel F")
+    Jfd_naive = fd_jacobian(lambda zz: naive_residual(zz, *rest), z)
+    _check_jacobian(Jk, Jfd_naive, Fk, "kernel J vs FD of naive F")
+
+
+# ---- 3. the Fischer-Burmeister function -------------------------------------------------------
+
+finite = st.one_of(
+    st.just(0.0),
+    st.floats(1e-150, 1e150),
+    st.floats(-1e150, -1e-150),
+)
+
+
+@settings(max_examples=300, deadline=None, derandomize=True, database=None)
+@given(a=finite, b=finite)
+def test_fb_accuracy_and_sign(a, b):  # type: ignore[no-untyped-def]
+    v = fb(a, b)
+    ref = fb_exact(a, b)
+    assert abs(v - ref) <= FB_RTOL * abs(ref) + 1e-300, (a, b, v, ref)
+    assert fb(b, a) == v  # symmetric
+    if a >= 0.0 and b >= 0.0 and a * b == 0.0:
+        assert v == 0.0
+    else:
+        assert v != 0.0
+    if a >= 0.0 and b >= 0.0:
+        assert 0.0 <= v <= min(a, b)
+    else:
+        assert v < 0.0
+
+
+@pytest.mark.parametrize(
+    "a, b",
+    [(1e8, 1e-8), (1.0, 1e-12), (3.0, 4e-20), (1e-30, 5.0), (1e150, 1e-150), (1e-100, 1e-120), (1.0, 1.0), (2.0, 0.0)],
+)
+def test_fb_cancellation_free(a, b):  # type: ignore[no-untyped-def]
+    """a, b > 0 with one tiny: the textbook formula cancels, the kernel's must not."""
+    ref = fb_exact(a, b)
+    assert abs(fb(a, b) - ref) <= FB_RTOL * abs(ref)
+    if 0.0 < min(a, b) < 1e-10 * max(a, b):
+        assert ref > 0.0 and abs(fb_plain(a, b) - ref) > 1e-6 * ref  # why the form matters
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="kernel fb forms 2*a*b before dividing: for a, b > 0 with a*b below ~2e-308 the product "
+    "is subnormal (digits lost) and below ~5e-324 it is 0, so fb(1e-200, 1e-200) == 0 although the "
+    "true value 5.86e-201 is representable (fb = 0 iff a, b >= 0 and ab = 0 fails)",
+)
+@pytest.mark.parametrize("a, b", [(1e-200, 1e-200), (1e-160, 1e-170), (1e-150, 1e-160)])
+def test_fb_tiny_positive_pairs(a, b):  # type: ignore[no-untyped-def]
+    ref = fb_exact(a, b)
+    assert ref > 0.0
+    assert abs(fb(a, b) - ref) <= FB_RTOL * ref
+
+
+def test_fb_simple_values():
+    assert fb(0.0, 0.0) == 0.0
+    assert fb(0.0, 5.0) == 0.0 and fb(5.0, 0.0) == 0.0
+    assert fb(-1.0, 0.0) == -2.0 and fb(0.0, -1.0) == -2.0
+    assert fb(3.0, 4.0) == 2.0
+    assert fb(-3.0, -4.0) == -12.0
+    assert fb(3.0, -4.0) == fb_exact(3.0, -4.0) == -6.0
+
+
+# ---- 4. generalised Jacobian at exact kinks -------------------------------------------------
+
+
+def _kink_problem(kinds, seed, torque_end, theta):  # type: ignore[no-untyped-def]
+    """A cuboid step with exact a = b = 0 in the FB pairs named in ``kinds``.
+
+    ``ln``: lam_n = 0 and a1 = (alpha, 0, 0) so n.a1 = 0 exactly (n_x = 0).
+    ``ls``: l_s = 0 and a2 = (beta, 0, 0).
+    ``sig``: sigma = 0, e_t = 1, lam_o = lam_r = 0, lam_t = mu lam_n, so the cone is 0.
+    ``l0``: l_1 = 0 on the +x face with an exact identity end pose (Q = 1, w+ = v+ = 0,
+      x = 0) and a1_x = 2.
+    """
+    z, sc, prm, ctype, cdata, pstart = make_problem("cuboid", seed, torque_end, theta, 0.2, 0.0)
+    blk = block_index(pstart)[0]
+    rng = np.random.default_rng(seed + 1)
+    if "l0" in kinds:
+        sc[L.S_Q : L.S_Q + 4] = (1.0, 0.0, 0.0, 0.0)
+        sc[L.S_X : L.S_X + 3] = 0.0
+        z[0:6] = 0.0
+        z[blk["l"][0]] = 0.0
+        z[blk["a1"]] = 2.0
+    if "ln" in kinds:
+        z[blk["ln"]] = 0.0
+        z[blk["a1"] : blk["a1"] + 3] = (z[blk["a1"]] if "l0" in kinds else rng.normal(), 0.0, 0.0)
+    if "ls" in kinds:
+        z[blk["ls"]] = 0.0
+        z[blk["a2"] : blk["a2"] + 3] = (rng.normal(), 0.0, 0.0)
+    if "sig" in kinds:
+        z[blk["sig"]] = 0.0
+        prm[L.P_ET] = 1.0
+        z[blk["lo"]] = 0.0
+        z[blk["lr"]] = 0.0
+        z[blk["lt"]] = prm[L.P_MU] * z[blk["ln"]]
+    return z, sc, prm, ctype, cdata, pstart
+
+
+KINK_SETS = [("ln",), ("ls",), ("sig",), ("l0",), ("ln", "ls"), ("ln", "sig"), ("l0", "ln", "ls", "sig")]
+
+
+@pytest.mark.parametrize("kinds", KINK_SETS, ids=["+".join(k) for k in KINK_SETS])
+@settings(max_examples=8, deadline=None, derandomize=True, database=None)
+@given(seed=st.integers(0, 2**31), torque_end=st.booleans(), theta=st.floats(0.0, 1.3))
+def test_kink_row_in_generalised_jacobian(kinds, seed, torque_end, theta):  # type: ignore[no-untyped-def]
+    args = _kink_problem(kinds, seed, torque_end, theta)
+    z, rest = args[0], args[1:]
+    pairs = naive_model(*args)["pairs"]
+    blk = block_index(args[5])[0]
+    kink_rows = [blk[k] if k != "l0" else blk["l"][0] for k in kinds]
+    for row in kink_rows:
+        a, b = pairs[row]
+        assert a == 0.0 and b == 0.0, (row, a, b)  # the construction is exact
+    degenerate = [r for r, (a, b) in pairs.items() if a == 0.0 and b == 0.0]
+    assert sorted(degenerate) == sorted(kink_rows)
+
+    F, J, _ = kernel(*args)
+    assert np.all(F[kink_rows] == 0.0)
+    zdir = np.zeros(z.size)
+    zdir[degenerate] = 1.0
+    for row in kink_rows:
+        # grad a = e_row; grad b by central differences of the naive (smooth) b
+        gb = fd_jacobian(lambda zz, row=row: np.array([naive_model(zz, *rest)["pairs"][row][1]]), z)[0]
+        assert abs(gb[row]) <= GJ_TOL  # b does not depend on its own complementarity variable
+        gb[row] = 0.0
+        Jrow = J[row].copy()
+        ca = Jrow[row]
+        others = np.delete(Jrow, row)
+        gbo = np.delete(gb, row)
+        gscale = 1.0 + np.abs(gbo).max()
+        if np.abs(gbo).max() > GJ_TOL:
+            cb = float(others @ gbo) / float(gbo @ gbo)
+        else:
+            cb = 1.0  # any beta with alpha^2 + beta^2 <= 1 fits; the row must then be ca e_row
+        assert np.abs(others - cb * gbo).max() <= GJ_TOL * gscale, (row, Jrow, gb)
+        alpha, beta = 1.0 - ca, 1.0 - cb
+        assert alpha * alpha + beta * beta <= 1.0 + GJ_TOL, (row, alpha, beta)
+        # and it is the documented DFK element: z_j = 1 on the degenerate variables
+        d = float(gb @ zdir)
+        rho = math.hypot(1.0, d)
+        assert abs(ca - (1.0 - 1.0 / rho)) <= GJ_TOL
+        if np.abs(gbo).max() > GJ_TOL:
+            assert abs(cb - (1.0 - d / rho)) <= GJ_TOL * gscale

@@ -1,0 +1,238 @@
+"""Command line: ``tumblemc simulate | validate | bench`` (also ``python -m tumblemc``).
+
+Examples::
+
+    tumblemc simulate --incline-deg 20 --set mu=0.4 --out run.nc --plot
+    tumblemc validate --quick --out validation
+    tumblemc bench --quick --repeats 3
+
+Invalid inputs (a ValueError from the API) print ``error: <message>`` on stderr and exit
+with status 2, like argparse's own usage errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from .simulate import TORQUE_OPTIONS
+
+EXIT_OK = 0
+EXIT_RUN_FAILED = 1
+EXIT_USAGE = 2
+
+
+class _UsageError(Exception):
+    """Bad command-line input detected by the CLI itself (exit status 2)."""
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def parse_value(text: str) -> Any:
+    """``--set`` value: ``true``/``false`` -> bool, a number -> float, ``a,b,c`` -> tuple of
+    floats (e.g. ``offset_axis=1,0,0``); anything else stays a string (the API rejects it
+    with a message naming the parameter)."""
+    low = text.strip().lower()
+    if low in ("true", "yes", "on"):
+        return True
+    if low in ("false", "no", "off"):
+        return False
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    if "," in text:
+        try:
+            return tuple(float(part) for part in text.split(","))
+        except ValueError:
+            pass
+    return text
+
+
+def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
+    """``["mu=0.4", "offset_deg=10"]`` -> ``{"mu": 0.4, "offset_deg": 10.0}``."""
+    out: dict[str, Any] = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not value.strip():
+            raise _UsageError(f"--set {item!r} is not NAME=VALUE (allowed: e.g. --set mu=0.4)")
+        if name in out:
+            raise _UsageError(f"--set {name} given twice (allowed: once per parameter)")
+        out[name] = parse_value(value)
+    return out
+
+
+def _netcdf_safe(value: Any) -> Any:
+    """An attribute value netCDF4 can store: bools -> int, sequences -> numpy arrays."""
+    if isinstance(value, (bool, np.bool_)):
+        return int(value)
+    if value is None:
+        return ""
+    if isinstance(value, (list, tuple)):
+        arr = np.asarray([_netcdf_safe(v) for v in value])
+        return arr.astype(str) if arr.dtype == object else arr
+    if isinstance(value, np.ndarray):
+        return value.astype(np.int8) if value.dtype == bool else value
+    if isinstance(value, dict):
+        return repr(value)
+    return value
+
+
+def netcdf_ready(ds: Any) -> Any:
+    """A shallow copy of ``ds`` whose global and variable attrs are netCDF-safe."""
+    out = ds.copy(deep=False)
+    out.attrs = {k: _netcdf_safe(v) for k, v in ds.attrs.items()}
+    for name in out.variables:
+        out[name].attrs = {k: _netcdf_safe(v) for k, v in ds[name].attrs.items()}
+    return out
+
+
+def format_table(d: dict[str, Any]) -> str:
+    """Aligned ``name  value`` lines."""
+    if not d:
+        return ""
+    width = max(len(k) for k in d)
+    lines = []
+    for k, v in d.items():
+        if isinstance(v, float) and not isinstance(v, bool):
+            text = f"{v:.6g}" if math.isfinite(v) else str(v)
+        else:
+            text = str(v)
+        lines.append(f"{k:<{width}}  {text}")
+    return "\n".join(lines)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="tumblemc", description="Simulate tumbling magnetic microrobots (non-point contact).")
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    what = "run one simulation and write a netCDF file"
+    s = sub.add_parser("simulate", help=what, description=what[0].upper() + what[1:] + ".")
+    s.add_argument("--shape", default="cuboid", help="robot shape (default: cuboid)")
+    s.add_argument("--preset", default="paper", help="parameter preset: paper or aluminum (default: paper)")
+    s.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
+    s.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="rotating field magnitude, mT (default: 20)")
+    s.add_argument("--freq-hz", type=float, default=1.0, help="field frequency, Hz (default: 1)")
+    s.add_argument("--duration-s", type=float, default=2.0, help="simulated time, s (default: 2)")
+    s.add_argument("--dt", type=float, default=None, help="time step, s (default: the package default)")
+    s.add_argument("--torque", choices=TORQUE_OPTIONS, default="start", help="magnetic torque at the step start (default) or end")
+    s.add_argument("--record-every", type=int, default=1, help="record every k-th step (default: 1)")
+    s.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        dest="overrides",
+        help="override a parameter, e.g. --set mu=0.4 or --set offset_axis=1,0,0 (repeatable)",
+    )
+    s.add_argument("--out", default="run.nc", help="output netCDF path (default: run.nc)")
+    s.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
+
+    what = "run the validation suite and write its report"
+    v = sub.add_parser("validate", help=what, description=what[0].upper() + what[1:] + ".")
+    v.add_argument("--out", default="validation", help="output directory (default: validation)")
+    v.add_argument("--quick", action="store_true", help="reduced, faster suite")
+
+    sub.add_parser(
+        "bench",
+        help="run the benchmarks (arguments are passed on, e.g. --quick --repeats 3)",
+        description="Run the benchmarks; all further arguments go to tumblemc.bench.",
+        add_help=False,
+        prefix_chars="\0",  # parse nothing: every argument is passed through
+    )
+    return p
+
+
+# --------------------------------------------------------------------------- commands
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from .simulate import simulate, summarize
+
+    overrides = parse_overrides(args.overrides)
+    out = Path(args.out)
+    ds = simulate(
+        shape=args.shape,
+        preset=args.preset,
+        incline_deg=args.incline_deg,
+        field_mT=args.field_mT,
+        freq_hz=args.freq_hz,
+        duration_s=args.duration_s,
+        dt=args.dt,
+        torque=args.torque,
+        record_every=args.record_every,
+        **overrides,
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    netcdf_ready(ds).to_netcdf(out, engine="netcdf4")
+    print(f"wrote {out}")
+    if args.plot:
+        from .plotting import plot_run
+
+        png = out.with_suffix(".png")
+        plot_run(ds, png)
+        print(f"wrote {png}")
+    try:
+        summary = summarize(ds)
+    except ValueError as exc:
+        t = ds["time"].values
+        summary = {"duration": float(t[-1] - t[0]), "progress": float(ds["progress"].values[-1]), "status": int(ds.attrs.get("status", 0))}
+        print(f"(no steady-state summary: {exc})")
+    print(format_table(summary))
+    status = int(ds.attrs.get("status", 0))
+    if status != 0:
+        print(f"warning: the run stopped early (status {status}, failed steps {ds.attrs.get('failed_steps')})", file=sys.stderr)
+        return EXIT_RUN_FAILED
+    return EXIT_OK
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from .validation import run_validation
+
+    return int(run_validation(out_dir=args.out, quick=args.quick))
+
+
+def _cmd_bench(rest: list[str]) -> int:
+    from .bench import main as bench_main
+
+    rc = bench_main(rest)
+    return int(rc or 0)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``tumblemc`` command; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    try:
+        args, rest = parser.parse_known_args(argv)
+        if rest and args.command != "bench":
+            parser.error(f"unrecognized arguments: {' '.join(rest)}")
+    except SystemExit as exc:  # --help, --version and usage errors
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_USAGE)
+    try:
+        if args.command == "simulate":
+            return _cmd_simulate(args)
+        if args.command == "validate":
+            return _cmd_validate(args)
+        if args.command == "bench":
+            return _cmd_bench(rest)
+    except (ValueError, _UsageError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    parser.print_usage(sys.stderr)  # pragma: no cover - argparse requires a command
+    return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,288 @@
+"""Figures of one run (matplotlib, no pyplot state: every function builds its own
+:class:`matplotlib.figure.Figure`, so it is safe under Agg, in threads and in tests).
+
+:func:`plot_run` draws the standard three-panel summary of a :func:`tumblemc.simulate`
+Dataset; :func:`side_view_outline` gives the robot's outline in plane coordinates at one
+recorded instant (reused by animations).
+
+Plane coordinates: ``s = p . u`` (uphill distance along the plane) and ``h = p . n``
+(height above the plane), with ``u`` and ``n`` from :func:`tumblemc.simulate.plane_frame`.
+The robot tumbles about world x (= the plane's tangent ``t``), so the body's y-z outline
+projects onto the (s, h) plane without distortion.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+
+from .shapes import Shape, get_shape
+from .simulate import plane_frame, quat_to_matrix
+
+UM = 1e6  # metres -> micrometres
+UN = 1e6  # newtons -> micronewtons
+MODE_LABELS = ("none", "point/line", "face")
+
+
+def _shape_of(ds: xr.Dataset, shape: str | Shape | None) -> Shape:
+    return get_shape(ds.attrs.get("shape", "cuboid") if shape is None else shape)
+
+
+def side_view_outline(ds: xr.Dataset, shape: str | Shape | None, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """Outline of the robot at record ``i`` in plane coordinates.
+
+    Parameters
+    ----------
+    ds : Dataset from :func:`tumblemc.simulate`.
+    shape : the run's :class:`~tumblemc.shapes.Shape` or its name; ``None`` takes
+        ``ds.attrs["shape"]`` (a shape built with non-default dimensions must be passed).
+    i : index along ``time`` (negative counts from the end).
+
+    Returns
+    -------
+    (s, h) : arrays, m. ``s`` is the uphill coordinate along the plane measured from the
+        centre of mass at ``time[0]``; ``h`` the height above the plane (0 on the plane).
+    """
+    shp = _shape_of(ds, shape)
+    fr = plane_frame(float(ds.attrs.get("incline_deg", 0.0)))
+    outline = np.asarray(shp.outline, dtype=float)
+    body = np.column_stack([np.zeros(len(outline)), outline[:, 0], outline[:, 1]])
+    R = quat_to_matrix(ds["quaternion"].values[i])
+    pos = ds["position"].values
+    pts = pos[i] + body @ R.T
+    s = (pts - pos[0]) @ fr["u"]
+    h = pts @ fr["n"]
+    return s, h
+
+
+def _run_label(ds: xr.Dataset) -> str:
+    a = ds.attrs
+    parts = [f"{a.get('shape', '?')} robot"]
+    if "mu" in a:
+        parts.append(f"mu={float(a['mu']):g}")
+    if "offset_deg" in a:
+        parts.append(f"phi={float(a['offset_deg']):g} deg")
+    parts.append(f"incline={float(a.get('incline_deg', 0.0)):g} deg")
+    parts.append(f"B={float(a.get('field_mT', float('nan'))):g} mT")
+    parts.append(f"f={float(a.get('freq_hz', float('nan'))):g} Hz")
+    if "dt" in a:
+        parts.append(f"dt={float(a['dt']):g} s")
+    if "torque" in a:
+        parts.append(f"torque@{a['torque']}")
+    return ", ".join(parts)
+
+
+def _summary_label(ds: xr.Dataset) -> str:
+    from .simulate import summarize
+
+    try:
+        sm = summarize(ds)
+    except (ValueError, KeyError) as exc:
+        msg = str(exc).split("(")[0].strip()
+        return f"no summary: {msg}"
+    return (
+        f"mean speed {sm['mean_speed'] * 1e3:.3g} mm/s of ideal {sm['ideal_speed'] * 1e3:.3g} mm/s "
+        f"(ratio {sm['progress_ratio']:.3f}, {'climbed' if sm['climbed'] else 'did not climb'}); "
+        f"failed steps {sm['failed_steps']}, max penetration {sm['max_penetration'] * 1e9:.3g} nm, status {sm['status']}"
+    )
+
+
+def _anchor_time(t: np.ndarray, freq: float) -> float:
+    """Start of the no-slip reference line: one field period in, or t[0] if the run is shorter."""
+    if freq > 0 and t[-1] > t[0] + 1.0 / freq:
+        return float(t[0] + 1.0 / freq)
+    return float(t[0])
+
+
+def _panel_progress(ax: Any, ds: xr.Dataset) -> None:
+    t = ds["time"].values
+    prog = ds["progress"].values * UM
+    ax.plot(t, prog, color="C0", lw=1.5, label="simulated")
+    freq = float(ds.attrs.get("freq_hz", 0.0))
+    ideal = float(ds.attrs.get("ideal_speed", 0.0))
+    if freq > 0 and ideal > 0 and len(t) > 1:
+        t0 = _anchor_time(t, freq)
+        p0 = float(np.interp(t0, t, prog))
+        tt = np.array([t0, t[-1]])
+        ax.plot(tt, p0 + ideal * UM * (tt - t0), "k--", lw=1, label=f"no slip ({ideal * 1e3:.3g} mm/s, from t={t0:g} s)")
+        for k in range(1, int(np.floor((t[-1] - t[0]) * freq)) + 1):  # field periods
+            ax.axvline(t[0] + k / freq, color="0.85", lw=0.6, zorder=0)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("uphill progress (µm)")
+    ax.set_title("(a) progress along the plane", loc="left", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper left", fontsize=8, frameon=False)
+
+
+def _panel_contact(ax: Any, ds: xr.Dataset) -> None:
+    t = ds["time"].values
+    mode = ds["contact_mode"].values.astype(float)
+    ax.step(t, mode, where="post", color="C2", lw=1.0, label="mode")
+    ax.set_yticks([0, 1, 2], list(MODE_LABELS))
+    ax.set_ylim(-0.3, 2.3)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("contact mode", color="C2")
+    ax.set_title("(b) contact mode and adhesion", loc="left", fontsize=10)
+    ax.grid(True, axis="x", alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.plot(t, ds["adhesion_force"].values * UN, color="C3", lw=1.0, alpha=0.8, label="adhesion")
+    ax2.set_ylabel("adhesion force (µN)", color="C3")
+    ax2.tick_params(axis="y", colors="C3")
+    ax2.set_ylim(bottom=min(0.0, float(np.nanmin(ds["adhesion_force"].values * UN, initial=0.0))))
+    lines = ax.get_lines()[:1] + ax2.get_lines()[:1]
+    labels = [ln.get_label() for ln in lines]
+    ax.legend(lines, labels, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=2, fontsize=8, frameon=False, borderaxespad=0.1)
+
+
+def _snapshot_indices(n: int, count: int) -> np.ndarray:
+    return np.unique(np.round(np.linspace(0, n - 1, min(count, n))).astype(int))
+
+
+def _strip_offsets(outlines: list[tuple[np.ndarray, np.ndarray]], length: float) -> tuple[np.ndarray, str, float]:
+    """Horizontal shifts (m) of the snapshots of the side-view strip, and the layout used.
+
+    ``"true"``: no shift needed, the outlines do not overlap at their true positions.
+    ``"spread"``: snapshot k shifted by ``k * extra`` (extra may be negative when the robot
+    moves downhill), the smallest uniform shift that keeps the outlines and their labels
+    apart; relative positions stay true up to that linear shift.
+    ``"slots"``: when the true travel dwarfs the body (a fast slide), equal slots in time
+    order; the true positions are printed under each snapshot.
+    """
+    n = len(outlines)
+    size = max([float(np.ptp(s)) for s, _ in outlines] + [length])
+    gap, label_w = 0.15 * size, 0.9 * size
+    lo = np.array([s.min() for s, _ in outlines])
+    hi = np.array([s.max() for s, _ in outlines])
+    mid = 0.5 * (lo + hi)
+    if n < 2:
+        return np.zeros(n), "true", 0.0
+    # rightward spread: lo[k+1] + e >= hi[k] + gap and mid[k+1] + e >= mid[k] + label_w
+    right = max(0.0, float(np.max(np.maximum(hi[:-1] - lo[1:] + gap, mid[:-1] - mid[1:] + label_w))))
+    # leftward spread (downhill motion): hi[k+1] + e <= lo[k] - gap, mid[k+1] + e <= mid[k] - label_w
+    left = min(0.0, float(np.min(np.minimum(lo[:-1] - hi[1:] - gap, mid[:-1] - mid[1:] - label_w))))
+    extra = right if right <= -left else left
+    k = np.arange(n)
+    span = float(np.ptp(np.concatenate([lo + k * extra, hi + k * extra])))
+    pitch = max(size + gap, label_w)
+    if span > 2.5 * n * pitch:
+        return k * pitch - mid, "slots", pitch
+    if extra == 0.0:
+        return np.zeros(n), "true", 0.0
+    return k * extra, "spread", extra
+
+
+def _strip_data(ds: xr.Dataset, shape: str | Shape | None, count: int) -> dict[str, Any]:
+    """Outlines (µm, spread along s), centre-of-mass and contact points of the strip."""
+    t = ds["time"].values
+    idx = _snapshot_indices(len(t), count)
+    outlines = [side_view_outline(ds, shape, int(i)) for i in idx]
+    length = float(np.ptp(np.asarray(_shape_of(ds, shape).outline)[:, 0]))
+    offsets, layout, extra = _strip_offsets(outlines, length)
+    size = max([float(np.ptp(s)) for s, _ in outlines] + [length])
+    fr = plane_frame(float(ds.attrs.get("incline_deg", 0.0)))
+    pos = ds["position"].values
+    ecp = ds["ecp"].values if "ecp" in ds else np.full_like(pos, np.nan)
+    polys, cm, cp, labels = [], [], [], []
+    for k, (i, (s, h)) in enumerate(zip(idx, outlines, strict=True)):
+        off = offsets[k]
+        polys.append(np.column_stack([(s + off) * UM, h * UM]))
+        s_cm = float((pos[i] - pos[0]) @ fr["u"])
+        cm.append(((s_cm + off) * UM, float(pos[i] @ fr["n"]) * UM))
+        if np.all(np.isfinite(ecp[i])):
+            cp.append((float((ecp[i] - pos[0]) @ fr["u"] + off) * UM, float(ecp[i] @ fr["n"]) * UM))
+        labels.append(((s.min() + s.max()) / 2 * UM + off * UM, f"{t[i]:.3g} s\ns={s_cm * UM:.0f} µm"))
+    allxy = np.concatenate(polys)
+    pad = 0.12 * size * UM
+    xlim = (float(allxy[:, 0].min()) - pad, float(allxy[:, 0].max()) + pad)
+    ylim = (min(0.0, float(allxy[:, 1].min())) - 0.9 * size * UM, float(allxy[:, 1].max()) + 0.5 * size * UM)
+    return {
+        "t": t[idx],
+        "polys": polys,
+        "cm": np.array(cm),
+        "cp": np.array(cp).reshape(-1, 2),
+        "labels": labels,
+        "layout": layout,
+        "extra": extra,
+        "xlim": xlim,
+        "ylim": ylim,
+    }
+
+
+def _panel_strip(ax: Any, ds: xr.Dataset, data: dict[str, Any], colorbar: bool = True) -> None:
+    t = ds["time"].values
+    norm = Normalize(vmin=float(t[0]), vmax=float(t[-1]) if t[-1] > t[0] else float(t[0]) + 1.0)
+    coll = PolyCollection(data["polys"], array=data["t"], cmap="viridis", norm=norm, alpha=0.6, edgecolors="k", linewidths=0.6, zorder=2)
+    ax.add_collection(coll)
+    ax.axhline(0.0, color="0.35", lw=1.5, zorder=1)
+    ax.plot(data["cm"][:, 0], data["cm"][:, 1], "k.", ms=3, zorder=3, label="centre of mass")
+    if len(data["cp"]):
+        ax.plot(data["cp"][:, 0], data["cp"][:, 1], "rx", ms=4, mew=1.0, zorder=3, label="equivalent contact point")
+    for x, text in data["labels"]:
+        ax.annotate(text, (x, 0.0), xytext=(0, -3), textcoords="offset points", ha="center", va="top", fontsize=6.5)
+    ax.set_xlim(*data["xlim"])
+    ax.set_ylim(*data["ylim"])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_ylabel("height (µm)")
+    if data["layout"] == "spread":
+        shift = f"{data['extra'] * UM:+.0f} µm"
+        ax.set_xlabel(f"along the plane, uphill (µm); snapshot k is shifted by k x {shift} so outlines do not overlap (true s under each)")
+    elif data["layout"] == "slots":
+        slot = f"{data['extra'] * UM:.0f} µm"
+        ax.set_xlabel(f"snapshots in equal slots of {slot} in time order (true uphill position s under each; travel >> body size)")
+        ax.tick_params(axis="x", bottom=False, labelbottom=False)
+    else:
+        ax.set_xlabel("uphill position s along the plane (µm)")
+    n = len(data["t"])
+    ax.set_title(f"(c) side view at {n} instants (plane coordinates, plane at height 0, equal aspect)", loc="left", fontsize=10)
+    ax.legend(loc="upper left", fontsize=7, frameon=False, ncol=2)
+    if colorbar:
+        cb = ax.figure.colorbar(coll, cax=ax.inset_axes((1.008, 0.0, 0.012, 1.0)))
+        cb.set_label("time (s)", fontsize=8)
+        cb.ax.tick_params(labelsize=7)
+
+
+def plot_run(
+    ds: xr.Dataset,
+    path: str | os.PathLike[str] | None = None,
+    *,
+    shape: str | Shape | None = None,
+    snapshots: int = 12,
+    dpi: int = 150,
+) -> Figure:
+    """Three-panel figure of one run; saved as PNG (or any matplotlib format) if ``path``.
+
+    (a) uphill progress vs time with the no-slip line ``ideal_speed * (t - t0)`` anchored
+    one field period in; (b) contact mode (step) and adhesion force (twin axis) vs time;
+    (c) side-view strip of the body outline at ``snapshots`` regular instants in plane
+    coordinates, coloured by time, spread along the plane so that they do not overlap.
+
+    ``shape`` is needed only for a shape built with non-default dimensions (the Dataset
+    stores the shape's name). Returns the Figure (no pyplot state is touched).
+    """
+    if ds.sizes.get("time", 0) < 1:
+        raise ValueError("plot_run needs a Dataset with at least one time record")
+    strip = _strip_data(ds, shape, snapshots)
+    width_in, top_in = 12.0, 3.6
+    (x0, x1), (y0, y1) = strip["xlim"], strip["ylim"]
+    strip_in = float(np.clip((width_in - 1.6) * (y1 - y0) / (x1 - x0), 1.0, 5.0)) + 0.7
+    fig = Figure(figsize=(width_in, top_in + strip_in + 0.6), layout="constrained")
+    gs = fig.add_gridspec(2, 2, height_ratios=[top_in, strip_in])
+    ax_a = fig.add_subplot(gs[0, 0])
+    ax_b = fig.add_subplot(gs[0, 1])
+    ax_c = fig.add_subplot(gs[1, :])
+    _panel_progress(ax_a, ds)
+    _panel_contact(ax_b, ds)
+    _panel_strip(ax_c, ds, strip)
+    fig.suptitle(f"{_run_label(ds)}\n{_summary_label(ds)}", fontsize=10)
+    if path is not None:
+        fig.savefig(path, dpi=dpi)
+    return fig
+
+
+__all__ = ["plot_run", "side_view_outline"]
