@@ -112,6 +112,9 @@ def prepare(
     torque: str = "start",
     record_every: int = 1,
     solver: SolverOptions | None = None,
+    lift_m: float = 0.0,
+    v0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    omega0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     **overrides: Any,
 ) -> RunSpec:
     """Validate the inputs of :func:`simulate` and build the scaled kernel data."""
@@ -158,8 +161,15 @@ def prepare(
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
     state0 = np.zeros(13)
-    state0[0:3] = shp.rest_height() / LENGTH_M * fr["n"]
+    lift_m = _check_number("lift_m", lift_m, "", 0.0, 1.0)
+    state0[0:3] = (shp.rest_height() + lift_m) / LENGTH_M * fr["n"]
     state0[3:7] = rot_to_quat(R0)
+    for name, vec, scale in (("v0", v0, u.velocity), ("omega0", omega0, 1.0 / u.time)):
+        arr = np.asarray(vec, dtype=float)
+        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
+    state0[7:10] = np.asarray(v0, dtype=float) / u.velocity
+    state0[10:13] = np.asarray(omega0, dtype=float) * u.time
     return RunSpec(shp, params, incline_deg, field_mT, freq_hz, duration_s, dt, torque, u, shp.geometry(), prm, state0, n_steps, record_every, solver)
 
 
@@ -255,6 +265,9 @@ def simulate(
     torque: str = "start",
     record_every: int = 1,
     solver: SolverOptions | None = None,
+    lift_m: float = 0.0,
+    v0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    omega0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     **overrides: Any,
 ) -> xr.Dataset:
     """Simulate one tumbling robot and return its time series.
@@ -279,6 +292,9 @@ def simulate(
     record_every : int
         Record every k-th step (iteration counts are summed, penetration is maxed).
     solver : SolverOptions, optional
+    lift_m, v0, omega0 : optional
+        Initial height above the resting pose (m), velocity (m/s) and angular velocity
+        (rad/s, world frame); by default the robot starts at rest, lying flat (MODEL.md).
     **overrides
         Any :class:`~tumblemc.params.Params` field by name (``mu=0.4``, ``mass=...``).
 
@@ -288,7 +304,7 @@ def simulate(
         Dimension ``time``; variables and units in :mod:`tumblemc.results`; attrs hold
         every parameter in SI, the options and the package version.
     """
-    spec = prepare(shape, preset, incline_deg, field_mT, freq_hz, duration_s, dt, torque=torque, record_every=record_every, solver=solver, **overrides)
+    spec = prepare(shape, preset, incline_deg, field_mT, freq_hz, duration_s, dt, torque=torque, record_every=record_every, solver=solver, lift_m=lift_m, v0=v0, omega0=omega0, **overrides)
     rec, status, failed = run_spec(spec)
     return to_dataset(spec, rec, status, failed)
 

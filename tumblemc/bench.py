@@ -1,0 +1,81 @@
+"""``tumblemc bench``: per-step cost of the time-stepper (a benchmark, never a test).
+
+Prints, for the cuboid on the 45 deg paper incline and on flat paper at 1 and 10 Hz:
+median wall time per step over several runs (after compilation), Newton iterations per
+step, wall time per simulated second at the default dt, and the compile time of the
+kernels in a fresh process with an empty (cold) and with a warm (cached) Numba cache.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+
+from .simulate import DEFAULT_DT, prepare, run_spec
+
+SCENARIOS = (
+    ("paper 45 deg, 1 Hz", dict(preset="paper", incline_deg=45.0, freq_hz=1.0)),
+    ("flat paper, 1 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=1.0)),
+    ("flat paper, 10 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=10.0)),
+)
+
+_COMPILE_SNIPPET = "import time; t=time.perf_counter(); import tumblemc; tumblemc.simulate(duration_s=0.002); print(time.perf_counter()-t)"
+
+
+def compile_time(cache_dir: str) -> float:
+    """Seconds for import + first simulate in a fresh interpreter using ``cache_dir``."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    out = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET], env=env, capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def measure(kw: dict, duration_s: float, repeats: int, dt: float | None = None) -> dict[str, float]:
+    spec = prepare(duration_s=duration_s, dt=dt, **kw)
+    run_spec(prepare(duration_s=0.002, dt=dt, **kw))  # compile outside the timing
+    walls = []
+    nit = 0.0
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        rec, _, _ = run_spec(spec)
+        walls.append(time.perf_counter() - t0)
+        nit = float(rec[1:, 19].sum()) / spec.n_steps
+    med = statistics.median(walls)
+    return {
+        "steps": spec.n_steps,
+        "us_per_step": 1e6 * med / spec.n_steps,
+        "newton_per_step": nit,
+        "ms_per_sim_s": 1e3 * med / duration_s,
+        "spread_pct": 100 * (max(walls) - min(walls)) / med,
+    }
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="tumblemc bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5, help="runs per scenario; the median is reported (default 5)")
+    ap.add_argument("--duration-s", type=float, default=2.0, help="simulated seconds per run (default 2)")
+    ap.add_argument("--quick", action="store_true", help="0.2 s runs, 3 repeats, no compile timing")
+    ap.add_argument("--no-compile", action="store_true", help="skip the cold/cached compile timing")
+    a = ap.parse_args(argv)
+    dur = 0.2 if a.quick else a.duration_s
+    reps = 3 if a.quick else a.repeats
+    print(f"tumblemc bench: dt = {DEFAULT_DT} s (default), {reps} runs of {dur} s each, median; one core")
+    print(f"{'scenario':22s} {'steps':>7s} {'us/step':>8s} {'Newton/step':>11s} {'ms per sim s':>12s} {'spread %':>8s}")
+    for name, kw in SCENARIOS:
+        r = measure(kw, dur, reps)
+        print(f"{name:22s} {r['steps']:7d} {r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}")
+    if not (a.quick or a.no_compile):
+        with tempfile.TemporaryDirectory() as d:
+            cold = compile_time(d)
+            warm = statistics.median(compile_time(d) for _ in range(3))
+        print(f"compile + first run in a fresh process: cold cache {cold:.1f} s, cached {warm:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
