@@ -117,7 +117,7 @@ def _lm_direction(J, F, g, A, piv, d, n, nu):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project):  # type: ignore[no-untyped-def]
+def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s):  # type: ignore[no-untyped-def]
     """Armijo backtracking along ``d``; on success ``ws.zt`` holds the new point.
 
     With ``project``, trial points are projected onto ``z_i >= 0`` for the complementarity variables
@@ -146,7 +146,7 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n,
             target = theta + c * dec if dec < 0.0 else theta * (1.0 - c * t)
         else:
             target = theta + c * t * slope
-        th = residual(ws.zt, sc, prm, ctype, cdata, pstart, ws.Ft, ws.Jt, False, ws.Ft_isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+        th = residual(ws.zt, sc, prm, ctype, cdata, pstart, ws.Ft, ws.Jt, False, ws.Ft_isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
         if th <= target:
             return True, th
         t *= 0.5
@@ -154,7 +154,7 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n,
 
 
 @jit
-def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ignore[no-untyped-def]
+def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-def]
     """Solve ``Phi(z) = 0`` in place from the warm start ``z``.
 
     Parameters
@@ -170,6 +170,12 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ig
         Receives ``(iterations, fallbacks, 0)``.
     project : bool
         Keep the complementarity variables >= 0 in the line search (see ``_line_search``).
+    smooth0 : float
+        If > 0, a smoothing continuation: Newton on the smoothed FB rows with
+        ``mu = smooth0``, divided by 10 whenever ``||Phi_mu|| <= mu / 10``, down to the plain
+        FB rows (Jacobian-smoothing idea of Chen, Qi & Sun 1998). The smoothed rows have
+        no kinks and keep every complementarity pair strictly positive along the path,
+        which frees the ECP to move across a face when the touching feature changes.
 
     Returns
     -------
@@ -185,7 +191,8 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ig
     d = ws.d
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
-    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    mu_s = smooth0
+    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
     fallbacks = 0
     it = 0
     status = ST_MAXIT
@@ -199,7 +206,11 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ig
         if not fnorm == fnorm or fnorm == math.inf:
             status = ST_NAN
             break
-        if fnorm <= tol:
+        if mu_s > 0.0 and fnorm <= max(tol, 0.1 * mu_s):
+            mu_s = 0.1 * mu_s if 0.1 * mu_s > 1e-3 * tol else 0.0
+            theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
+            continue
+        if fnorm <= tol and mu_s == 0.0:
             status = ST_OK
             break
         if it >= maxit:
@@ -230,7 +241,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ig
                 slope += g[i] * d[i]
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
-                accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project)
+                accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s)
         # 2. Levenberg-Marquardt
         if not accepted:
             fallbacks += 1
@@ -240,18 +251,18 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project):  # type: ig
                 for i in range(n):
                     slope += g[i] * d[i]
                 if slope < 0.0:
-                    accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project)
+                    accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s)
         # 3. steepest descent
         if not accepted:
             for i in range(n):
                 d[i] = -g[i] / max(gnorm, 1e-300)
-            accepted, th_new = _line_search(z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project)
+            accepted, th_new = _line_search(z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s)
         if not accepted:
             status = ST_LINESEARCH
             break
         for i in range(n):
             z[i] = ws.zt[i]
-        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
     out[0] = it
     out[1] = fallbacks
     return status, fnorm

@@ -80,6 +80,17 @@ def fb(a, b):  # type: ignore[no-untyped-def]
     return s - r
 
 
+@jit
+def fb_smooth(a, b, mu):  # type: ignore[no-untyped-def]
+    """Smoothed FB ``a + b - sqrt(a^2 + b^2 + 2 mu^2)``, zero iff a, b > 0 and ab = mu^2
+    (Kanzow 1996); cancellation-free for a + b > 0. Returns (value, rho)."""
+    r = math.sqrt(a * a + b * b + 2.0 * mu * mu)
+    s = a + b
+    if s > 0.0:
+        return 2.0 * (a * b - mu * mu) / (s + r), r
+    return s - r, r
+
+
 def n_unknowns(pstart) -> int:  # type: ignore[no-untyped-def]
     """Size of ``z`` for pieces delimited by ``pstart`` (plain Python helper)."""
     k = len(pstart) - 1
@@ -111,7 +122,7 @@ def _friction_jac(J, row, ilam, isg, iln, ia1, cf, dln, dsig, dlam, axis, wnew, 
 
 
 @jit
-def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33, q4, e43):  # type: ignore[no-untyped-def]
+def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33, q4, e43, mu_s=0.0):  # type: ignore[no-untyped-def]
     """Evaluate ``Phi(z)`` into ``F`` and, if ``want_J``, its Jacobian into ``J``.
 
     Parameters
@@ -132,6 +143,8 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
         Workspaces: FB-row flags and the raw ``b`` of each FB pair.
     v3, m33, q4, e43 : float64[16, 3], float64[8, 3, 3], float64[2, 4], float64[2, 4, 3]
         Small scratch arrays (no allocation here).
+    mu_s : float
+        Smoothing of the FB rows (``fb_smooth``); 0 gives the plain FB of the model.
 
     Returns
     -------
@@ -418,6 +431,22 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
 
     # ---- Fischer-Burmeister rows (row index == its complementarity variable) ---------
     theta = 0.0
+    if mu_s > 0.0:
+        for i in range(n):
+            if isfb[i] == 0:
+                theta += F[i] * F[i]
+                continue
+            a = z[i]
+            b = fbb[i]
+            val, rho = fb_smooth(a, b, mu_s)
+            F[i] = val
+            theta += val * val
+            if want_J:
+                cb = 1.0 - b / rho
+                for j in range(n):
+                    J[i, j] *= cb
+                J[i, i] += 1.0 - a / rho
+        return 0.5 * theta
     if want_J:
         for i in range(n):
             if isfb[i] == 1:

@@ -85,9 +85,11 @@ sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
 """
 
 CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as touching
-CONTACT_LN_TOL = 1e-9
+CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
 LOW_TOL = 1e-3  # support points this close (scaled length) to the lowest count as touching
-RESTART_TOL = 5e-2  # the same, for the fresh contact guess after a failed warm-started solve  # normal force (units of the weight) above which a piece touches
+RESTART_TOL = 5e-2  # the same, for the fresh contact guess after a failed warm-started solve
+N_ATTEMPTS = 6  # warm / warm projected / fresh guess / fresh projected / warm smoothed / fresh smoothed
+SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
 
 
 @jit
@@ -361,7 +363,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             # --- free-flight prediction
             for i in range(6):
                 z6[i] = z[i]
-            st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False)
+            st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
             acc_nit += iters[0]
             flight = False
             if st6 == ST_OK:
@@ -401,10 +403,11 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     off += B_FIXED + mk
                 # deterministic strategies, cheapest first: warm start, then a fresh contact
                 # guess at the predicted end pose (the feature changed within the step: a
-                # face slapping down, an edge passing over), each plain, then projected
+                # face slapping down, an edge passing over), each plain, then projected;
+                # last a smoothing continuation from each
                 st = ST_NAN
                 res = math.inf
-                for attempt in range(4):
+                for attempt in range(N_ATTEMPTS):
                     if attempt == 2:
                         for i in range(n):
                             z[i] = zsave[i]
@@ -422,13 +425,16 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     elif attempt == 1:
                         for i in range(n):
                             z[i] = zwarm[i]
-                    elif attempt == 3:
+                    elif attempt == 3 or attempt == 5:
                         for i in range(n):
                             z[i] = zguess[i]
+                    elif attempt == 4:
+                        for i in range(n):
+                            z[i] = zwarm[i]
                     else:
                         for i in range(n):
                             zwarm[i] = z[i]
-                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters, attempt % 2 == 1)
+                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters, attempt == 1 or attempt == 3, SMOOTH0 if attempt >= 4 else 0.0)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
