@@ -191,21 +191,25 @@ def convergence(quick: bool = False) -> list[dict[str, Any]]:
 def default_dt(table: list[dict[str, Any]], torque: str = "start", rel: float = 0.02) -> tuple[float | None, dict[str, float]]:
     """Largest dt whose verdicts match the finest dt and whose ratios are within ``rel``.
 
-    Returns the dt (None if none qualifies) and, per case, the largest dt that qualifies.
+    The ratio criterion applies to cases that climb at the finest dt: there the progress
+    ratio measures the accuracy of the gait. A robot that fails slides or tumbles down
+    chaotically and its ratio does not converge (the verdict does), so for those cases
+    only the verdict must match. Returns the dt and, per case, the largest qualifying dt
+    (qualifying dts must be contiguous from the finest).
     """
     cases = sorted({r["case"] for r in table})
     per_case: dict[str, float] = {}
     for c in cases:
         rows = sorted((r for r in table if r["case"] == c and r["torque"] == torque), key=lambda r: r["dt"])
         ref = rows[0]
-        ok_dts = [r["dt"] for r in rows if r["climbed"] == ref["climbed"] and abs(r["progress_ratio"] - ref["progress_ratio"]) <= rel * abs(ref["progress_ratio"])]
-        # the dts that qualify must be contiguous from the finest
         best = ref["dt"]
         for r in rows:
-            if r["dt"] in ok_dts:
-                best = r["dt"]
-            else:
+            ok = r["climbed"] == ref["climbed"]
+            if ref["climbed"]:
+                ok = ok and abs(r["progress_ratio"] - ref["progress_ratio"]) <= rel * abs(ref["progress_ratio"])
+            if not ok:
                 break
+            best = r["dt"]
         per_case[c] = best
     return (min(per_case.values()) if per_case else None), per_case
 

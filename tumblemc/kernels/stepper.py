@@ -90,6 +90,7 @@ LOW_TOL = 1e-3  # support points this close (scaled length) to the lowest count 
 RESTART_TOL = 5e-2  # the same, for the fresh contact guess after a failed warm-started solve
 N_ATTEMPTS = 6  # warm / warm projected / fresh guess / fresh projected / warm smoothed / fresh smoothed
 SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
+FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
 
 @jit
@@ -175,8 +176,10 @@ def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, Hb, tol):  # type: ignore[no-untyped-def]
-    """Warm start of a contact block that was not touching (MODEL.md numerical traps)."""
+def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, Hb, tol, keep_forces):  # type: ignore[no-untyped-def]
+    """Fresh guess of a contact block: ECP at the middle of the lowest feature, its normal
+    cone multipliers, and (unless ``keep_forces``, used when the block was touching) the
+    impact and predicted-sliding forces (MODEL.md numerical traps)."""
     a1 = z[off + B_A1 : off + B_A1 + 3]
     hgt = lowest_point(x, R, prm, geo, kp, a1, tol)
     gap = max(hgt, 0.0)
@@ -204,6 +207,8 @@ def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, H
     if s < 0.0:
         for ic in range(mk):
             z[off + B_L + ic] /= -s
+    if keep_forces:
+        return
     # an impact needs lam_n ~ m |v_n| / h plus the pressing load; slide at predicted values
     for i in range(3):
         tmp[i] = a1[i] - x[i]
@@ -360,12 +365,24 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             if hc > remaining:
                 hc = remaining
             _prepare(state, t, hc, prm, area_prev, any_touch, sc, R, tmp, tmp2)
-            # --- free-flight prediction
-            for i in range(6):
-                z6[i] = z[i]
-            st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
-            acc_nit += iters[0]
+            # --- free-flight prediction; an explicit pose that clearly penetrates skips it
             flight = False
+            st6 = ST_NAN
+            res6 = 0.0
+            quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
+            quat_to_rot(qn, R)
+            for i in range(3):
+                tmp3[i] = state[i] + hc * (state[7 + i] + hc * sc[S_FEXT + i] / prm[P_MASS])
+            clear = True
+            for kp in range(K):
+                if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL) < -FLIGHT_PRECHECK:
+                    clear = False
+                    break
+            if clear:
+                for i in range(6):
+                    z6[i] = z[i]
+                st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+                acc_nit += iters[0]
             if st6 == ST_OK:
                 quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
                 quat_to_rot(qn, R)
@@ -382,7 +399,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 off = 6
                 for kp in range(K):
                     mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                    _landing_guess(z, off, mk, kp, tmp3, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL)
+                    _landing_guess(z, off, mk, kp, tmp3, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
                     z[off + B_L + mk + 1] = 0.0
                     z[off + B_SIG] = 0.0
                     z[off + B_LT] = 0.0
@@ -399,7 +416,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 for kp in range(K):
                     mk = geo.pstart[kp + 1] - geo.pstart[kp]
                     if touching[kp] == 0:
-                        _landing_guess(z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL)
+                        _landing_guess(z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
                     off += B_FIXED + mk
                 # deterministic strategies, cheapest first: warm start, then a fresh contact
                 # guess at the predicted end pose (the feature changed within the step: a
@@ -418,7 +435,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, RESTART_TOL)
+                            _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, RESTART_TOL, touching[kp] == 1)
                             off += B_FIXED + mk
                         for i in range(n):
                             zguess[i] = z[i]
