@@ -88,7 +88,15 @@ CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as 
 CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
 LOW_TOL = 1e-3  # support points this close (scaled length) to the lowest count as touching
 RESTART_TOL = 5e-2  # the same, for the fresh contact guess after a failed warm-started solve
-N_ATTEMPTS = 6  # warm / warm projected / fresh guess / fresh projected / warm smoothed / fresh smoothed
+# Deterministic solve strategies of one (sub-)step, cheapest first. Guess 0: the warm
+# start; 1: a fresh contact guess at the predicted pose (ECP in the middle of the lowest
+# face within RESTART_TOL) keeping the forces of touching blocks; 2: a fresh guess at the
+# lowest vertex/edge with impact and predicted-sliding forces. Then plain, projected or
+# smoothed Newton.
+STRATEGY_GUESS = (0, 0, 1, 1, 0, 1, 2, 2)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False)
+STRATEGY_SMOOTH = (False, False, False, False, True, True, False, True)
+N_ATTEMPTS = 8
 SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
@@ -333,7 +341,6 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     Jth = np.zeros((3, 3))
     iters = np.zeros(3, np.int64)
     zwarm = np.zeros(n)
-    zguess = np.zeros(n)
     touching = np.zeros(K, np.int64)
     maxdepth = int(opts[O_MAXDEPTH])
 
@@ -418,14 +425,21 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     if touching[kp] == 0:
                         _landing_guess(z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
                     off += B_FIXED + mk
-                # deterministic strategies, cheapest first: warm start, then a fresh contact
-                # guess at the predicted end pose (the feature changed within the step: a
-                # face slapping down, an edge passing over), each plain, then projected;
-                # last a smoothing continuation from each
+                # deterministic strategies (STRATEGY_*): the touching feature may change
+                # within the step (a face slapping down, an edge passing over, a vertex
+                # switching), which the warm start alone cannot follow
                 st = ST_NAN
                 res = math.inf
+                for i in range(n):
+                    zwarm[i] = z[i]
                 for attempt in range(N_ATTEMPTS):
-                    if attempt == 2:
+                    guess = STRATEGY_GUESS[attempt]
+                    if guess == 0:
+                        for i in range(n):
+                            z[i] = zwarm[i]
+                    else:
+                        # fresh contact guess at the predicted end pose; guess 1 keeps the
+                        # forces of touching blocks, guess 2 restarts them (impact, sliding)
                         for i in range(n):
                             z[i] = zsave[i]
                         quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
@@ -435,23 +449,11 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, RESTART_TOL, touching[kp] == 1)
+                            tolg = RESTART_TOL if guess == 1 else LOW_TOL
+                            _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
-                        for i in range(n):
-                            zguess[i] = z[i]
-                    elif attempt == 1:
-                        for i in range(n):
-                            z[i] = zwarm[i]
-                    elif attempt == 3 or attempt == 5:
-                        for i in range(n):
-                            z[i] = zguess[i]
-                    elif attempt == 4:
-                        for i in range(n):
-                            z[i] = zwarm[i]
-                    else:
-                        for i in range(n):
-                            zwarm[i] = z[i]
-                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters, attempt == 1 or attempt == 3, SMOOTH0 if attempt >= 4 else 0.0)
+                    smooth = SMOOTH0 if STRATEGY_SMOOTH[attempt] else 0.0
+                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters, STRATEGY_PROJECT[attempt], smooth)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
