@@ -59,3 +59,16 @@ def test_adhesion_plateaus_on_45_deg_paper() -> None:
     line = adh[ds["contact_mode"].values == 1]
     assert line.size and line.max() < 0.1 * C * 0.4e-3 * 0.1e-3
     assert s["failed_steps"] == 0
+
+
+def test_nonplanar_magnetisation_runs_without_failed_steps() -> None:
+    """Issue 2 robustness: 20 runs, random tilt axes and offsets up to 30 deg (roll, yaw)."""
+    rng = np.random.default_rng(2019)
+    height = 100e-6
+    for _ in range(20):
+        axis = tuple(rng.normal(size=3))
+        angle = float(rng.uniform(0.0, 30.0))
+        ds = tumblemc.simulate(preset="paper", duration_s=2.0, offset_deg=angle, offset_axis=axis)
+        s = tumblemc.summarize(ds)
+        assert s["failed_steps"] == 0, (axis, angle)
+        assert s["max_penetration"] <= 1e-3 * height, (axis, angle)

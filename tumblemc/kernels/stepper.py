@@ -87,11 +87,12 @@ sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
 CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as touching
 CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
 LOW_TOL = 1e-3  # support points this close (scaled length) to the lowest count as touching
-RESTART_TOL = 5e-2  # the same, for the fresh contact guess after a failed warm-started solve
+RESTART_TOL = 5e-2  # the same, for the fresh face guess after a failed warm-started solve
+VERTEX_TOL = 1e-9  # the same, for the fresh vertex/edge guess (ties only)
 # Deterministic solve strategies of one (sub-)step, cheapest first. Guess 0: the warm
 # start; 1: a fresh contact guess at the predicted pose (ECP in the middle of the lowest
 # face within RESTART_TOL) keeping the forces of touching blocks; 2: a fresh guess at the
-# lowest vertex/edge with impact and predicted-sliding forces. Then plain, projected or
+# lowest vertex (or exactly tied edge) with impact and predicted-sliding forces. Then plain, projected or
 # smoothed Newton.
 STRATEGY_GUESS = (0, 0, 1, 1, 0, 1, 2, 2)
 STRATEGY_PROJECT = (False, True, False, True, False, False, False, False)
@@ -449,7 +450,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            tolg = RESTART_TOL if guess == 1 else LOW_TOL
+                            tolg = RESTART_TOL if guess == 1 else VERTEX_TOL
                             _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
                     smooth = SMOOTH0 if STRATEGY_SMOOTH[attempt] else 0.0
@@ -458,6 +459,39 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
                         break
+                if st != ST_OK and not clear:
+                    # lift-off that the explicit pre-check hid: the free-flight solution, if
+                    # it clears the plane, is the exact solution of the step
+                    for i in range(6):
+                        z6[i] = zsave[i]
+                    st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+                    acc_nit += iters[0]
+                    if st6 == ST_OK:
+                        quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
+                        quat_to_rot(qn, R)
+                        for i in range(3):
+                            tmp3[i] = state[i] + hc * z6[i]
+                        lifted = True
+                        for kp in range(K):
+                            if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL) <= 0.0:
+                                lifted = False
+                                break
+                        if lifted:
+                            for i in range(n):
+                                z[i] = zsave[i]
+                            for i in range(6):
+                                z[i] = z6[i]
+                            off = 6
+                            for kp in range(K):
+                                mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                                _landing_guess(z, off, mk, kp, tmp3, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
+                                z[off + B_L + mk + 1] = 0.0
+                                z[off + B_SIG] = 0.0
+                                z[off + B_LT] = 0.0
+                                z[off + B_LO] = 0.0
+                                off += B_FIXED + mk
+                            st = ST_OK
+                            res = res6
                 if st != ST_OK and depth < maxdepth:
                     for i in range(n):
                         z[i] = zsave[i]
