@@ -92,12 +92,13 @@ VERTEX_TOL = 1e-9  # the same, for the fresh vertex/edge guess (ties only)
 # Deterministic solve strategies of one (sub-)step, cheapest first. Guess 0: the warm
 # start; 1: a fresh contact guess at the predicted pose (ECP in the middle of the lowest
 # face within RESTART_TOL) keeping the forces of touching blocks; 2: a fresh guess at the
-# lowest vertex (or exactly tied edge) with impact and predicted-sliding forces. Then plain, projected or
+# lowest vertex (or exactly tied edge) with impact and predicted-sliding forces; 3: the
+# face of guess 1 with those forces (a face slapping down while sliding). Then plain, projected or
 # smoothed Newton.
-STRATEGY_GUESS = (0, 0, 1, 1, 0, 1, 2, 2)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False)
-STRATEGY_SMOOTH = (False, False, False, False, True, True, False, True)
-N_ATTEMPTS = 8
+STRATEGY_GUESS = (0, 0, 1, 1, 0, 1, 2, 2, 3, 3)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False)
+STRATEGY_SMOOTH = (False, False, False, False, True, True, False, True, False, True)
+N_ATTEMPTS = 10
 SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
@@ -439,8 +440,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         for i in range(n):
                             z[i] = zwarm[i]
                     else:
-                        # fresh contact guess at the predicted end pose; guess 1 keeps the
-                        # forces of touching blocks, guess 2 restarts them (impact, sliding)
+                        # fresh contact guess at the predicted end pose (STRATEGY_GUESS)
                         for i in range(n):
                             z[i] = zsave[i]
                         quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
@@ -450,7 +450,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            tolg = RESTART_TOL if guess == 1 else VERTEX_TOL
+                            tolg = VERTEX_TOL if guess == 2 else RESTART_TOL
                             _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
                     smooth = SMOOTH0 if STRATEGY_SMOOTH[attempt] else 0.0
