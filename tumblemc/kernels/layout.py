@@ -91,6 +91,6 @@ R_RES = 20  # final residual (max over the interval)
 R_FALLBACK = 21  # damped/gradient fallbacks in the interval
 R_SUB = 22  # extra sub-steps in the interval
 R_PEN = 23  # max penetration in the interval
-R_FAIL = 24  # failed steps in the interval
+R_FAIL = 24  # steps in the interval with a sub-step that did not converge at the smallest size
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
 N_REC = 28

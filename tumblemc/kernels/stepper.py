@@ -89,6 +89,7 @@ CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece 
 LOW_TOL = 1e-3  # support points this close (scaled length) to the lowest count as touching
 RESTART_TOL = 5e-2  # the same, for the fresh face guess after a failed warm-started solve
 VERTEX_TOL = 1e-9  # the same, for the fresh vertex/edge guess (ties only)
+FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # Deterministic solve strategies of one (sub-)step, cheapest first. Guess 0: the warm
 # start; 1: a fresh contact guess at the predicted pose (ECP in the middle of the lowest
 # face within RESTART_TOL) keeping the forces of touching blocks; 2: a fresh guess at the
@@ -370,6 +371,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         remaining = h
         hc = h
         depth = 0
+        step_failed = False
         while remaining > 1e-12 * h:
             if hc > remaining:
                 hc = remaining
@@ -450,7 +452,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            tolg = VERTEX_TOL if guess == 2 else RESTART_TOL
+                            tolg = VERTEX_TOL if guess == 2 else (RESTART_TOL if guess == 1 else FACE_TOL)
                             _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
                     smooth = SMOOTH0 if STRATEGY_SMOOTH[attempt] else 0.0
@@ -500,8 +502,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     acc_sub += 1
                     continue
                 if st != ST_OK:
-                    acc_fail += 1
-                    failed_total += 1
+                    step_failed = True
             if res > acc_res:
                 acc_res = res
             # --- commit
@@ -532,6 +533,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 pen = -lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL)
                 if pen > acc_pen:
                     acc_pen = pen
+        if step_failed:
+            acc_fail += 1
+            failed_total += 1
         if status == ST_NAN:
             break
         if (step + 1) % record_every == 0:
