@@ -34,23 +34,31 @@ def fb_plain(a: float, b: float) -> float:
     return a + b - np.sqrt(a * a + b * b)
 
 
+def _exact_ctx(*xs: Decimal):  # type: ignore[no-untyped-def]
+    """A decimal context that holds sums of the xs and of their squares exactly."""
+    nz = [x for x in xs if x != 0]
+    digits = sum(len(x.as_tuple().digits) for x in nz)
+    spread = max(x.adjusted() for x in nz) - min(x.adjusted() for x in nz) if nz else 0
+    return localcontext(prec=60 + 2 * (digits + spread), Emin=-999999, Emax=999999)
+
+
 def fb_exact(a: float, b: float) -> float:
     """``a + b - sqrt(a^2 + b^2)`` in decimal arithmetic, rounded once to float.
 
-    Floats convert to Decimal exactly. The precision is enough to hold ``a + b`` and
-    ``a^2 + b^2`` exactly (twice the digits of the inputs plus twice their exponent spread)
-    and 60 more digits, so the cancellation when a, b > 0 differ by hundreds of orders of
-    magnitude still leaves far more than 17 correct digits.
+    Floats convert to Decimal exactly. The precision holds ``a + b`` and ``a^2 + b^2``
+    exactly, with 60 spare digits, so even the cancellation when a, b > 0 differ by hundreds
+    of orders of magnitude leaves far more than 17 correct digits.
     """
-    da = Decimal(float(a))
-    db = Decimal(float(b))
-    digits = len(da.as_tuple().digits) + len(db.as_tuple().digits)
-    spread = abs(da.adjusted() - db.adjusted()) if da != 0 and db != 0 else 0
-    with localcontext() as ctx:
-        ctx.prec = 60 + 2 * (digits + spread)
-        ctx.Emin = -999999
-        ctx.Emax = 999999
+    da, db = Decimal(float(a)), Decimal(float(b))
+    with _exact_ctx(da, db):
         return float(da + db - (da * da + db * db).sqrt())
+
+
+def fb_smooth_exact(a: float, b: float, mu: float) -> float:
+    """Smoothed FB ``a + b - sqrt(a^2 + b^2 + 2 mu^2)`` (Kanzow 1996), as :func:`fb_exact`."""
+    da, db, dm = Decimal(float(a)), Decimal(float(b)), Decimal(float(mu))
+    with _exact_ctx(da, db, dm):
+        return float(da + db - (da * da + db * db + 2 * dm * dm).sqrt())
 
 
 # ---- quaternions and rotations --------------------------------------------------------
@@ -127,8 +135,11 @@ def block_index(pstart: np.ndarray) -> list[dict[str, int | list[int]]]:
     return out
 
 
-def naive_model(z, sc, prm, ctype, cdata, pstart) -> dict:  # type: ignore[no-untyped-def]
-    """Evaluate the model; returns ``F`` and the FB pairs ``{row: (a, b)}`` used."""
+def naive_model(z, sc, prm, ctype, cdata, pstart, mu_s=0.0) -> dict:  # type: ignore[no-untyped-def]
+    """Evaluate the model; returns ``F`` and the FB pairs ``{row: (a, b)}`` used.
+
+    ``mu_s > 0`` replaces every FB row by the smoothed FB of the same pair.
+    """
     z = np.asarray(z, dtype=float)
     sc = np.asarray(sc, dtype=float)
     prm = np.asarray(prm, dtype=float)
@@ -205,10 +216,10 @@ def naive_model(z, sc, prm, ctype, cdata, pstart) -> dict:  # type: ignore[no-un
     F[0:3] = mass * (v_new - v0) / h - force_sum - f_ext
     F[3:6] = I_new @ (w_new - w0) / h + np.cross(w0, I_new @ w0) - moment_sum - torque
     for row, (a, b) in pairs.items():
-        F[row] = fb_exact(a, b)
+        F[row] = fb_exact(a, b) if mu_s == 0.0 else fb_smooth_exact(a, b, mu_s)
     return {"F": F, "pairs": pairs}
 
 
-def naive_residual(z, sc, prm, ctype, cdata, pstart) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """``Phi(z)`` of one step (see the module docstring)."""
-    return naive_model(z, sc, prm, ctype, cdata, pstart)["F"]
+def naive_residual(z, sc, prm, ctype, cdata, pstart, mu_s=0.0) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """``Phi(z)`` of one step (see the module docstring); ``mu_s``: FB smoothing."""
+    return naive_model(z, sc, prm, ctype, cdata, pstart, mu_s)["F"]

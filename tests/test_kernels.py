@@ -5,7 +5,7 @@
    incline, inertia, step and complementarity variables, some of them exactly zero).
 2. Its analytic Jacobian equals central finite differences of the kernel's and of the
    naive ``F`` away from Fischer-Burmeister kinks.
-3. :func:`tumblemc.kernels.residual.fb` against an 80-digit reference, also where the
+3. :func:`tumblemc.kernels.residual.fb` against an exact decimal reference, also where the
    textbook formula cancels, and its sign properties.
 4. At exact FB kinks (``a = b = 0``) the Jacobian row is an element of the generalised
    Jacobian, ``(1 - alpha) grad a + (1 - beta) grad b`` with ``alpha^2 + beta^2 <= 1``,
@@ -21,10 +21,10 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from tests.naive import block_index, fb_exact, fb_plain, naive_model, naive_residual
+from tests.naive import block_index, fb_exact, fb_plain, fb_smooth_exact, naive_model, naive_residual
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import make_workspace
-from tumblemc.kernels.residual import fb, n_unknowns, residual
+from tumblemc.kernels.residual import fb, fb_smooth, n_unknowns, residual
 
 # ---- tolerances (named, in one place) --------------------------------------------------
 F_RTOL = 1e-12  # kernel F vs naive F, relative to 1 + max|F|; seen: <= 2e-15
@@ -118,7 +118,7 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
     prm[L.P_MU] = rng.uniform(0.1, 1.0)
     prm[L.P_ET] = rng.uniform(0.5, 2.0)
     prm[L.P_EO] = rng.uniform(0.5, 2.0)
-    prm[L.P_ER] = rng.uniform(0.05, 2.0)
+    prm[L.P_ER] = rng.choice([rng.uniform(0.05, 1.0), rng.uniform(1.0, 20.0)])  # both r-row scalings
     prm[L.P_TORQUE_END] = 1.0 if torque_end else 0.0
     prm[L.P_N : L.P_N + 3] = nrm
     prm[L.P_T : L.P_T + 3] = tt
@@ -157,10 +157,11 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
     return z, sc, prm, ctype, cdata, pstart
 
 
-def kernel(z, sc, prm, ctype, cdata, pstart, want_J=True):  # type: ignore[no-untyped-def]
-    """Run the kernel on fresh workspaces; returns (F, J, theta)."""
+def kernel(z, sc, prm, ctype, cdata, pstart, want_J=True, mu_s=None):  # type: ignore[no-untyped-def]
+    """Run the kernel on fresh workspaces; returns (F, J, theta). ``mu_s=None``: default FB."""
     ws = make_workspace(z.size)
-    theta = residual(z, sc, prm, ctype, cdata, pstart, ws.F, ws.J, want_J, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    a = (z, sc, prm, ctype, cdata, pstart, ws.F, ws.J, want_J, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    theta = residual(*a) if mu_s is None else residual(*a, mu_s)
     return ws.F.copy(), ws.J.copy(), theta
 
 
@@ -234,23 +235,42 @@ def test_residual_hand_checked_state():
 def _check_jacobian(J, Jfd, F, label):  # type: ignore[no-untyped-def]
     row_scale = 1.0 + np.abs(J).max(axis=1) + np.abs(F) * 1e-16 / FD_STEP
     err = np.abs(J - Jfd).max(axis=1)
-    bad = np.flatnonzero(err > FD_RTOL * row_scale)
-    assert bad.size == 0, f"{label}: rows {bad.tolist()} err {err[bad]} scale {row_scale[bad]}"
+    bad = err > FD_RTOL * row_scale
+    assert not bad.any(), f"{label}: rows {np.flatnonzero(bad).tolist()} err {err[bad]} scale {row_scale[bad]}"
+
+
+def _fd_point(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-untyped-def]
+    args = make_problem(geom, seed, torque_end, theta, h, p_zero)
+    pairs = naive_model(*args)["pairs"]
+    return args, min(math.hypot(a, b) for a, b in pairs.values()) > KINK_MIN
 
 
 @pytest.mark.parametrize("geom", sorted(GEOMETRIES))
 @SETTINGS
 @given(p_zero=st.sampled_from([0.0, 0.3]), **problem_args)
 def test_jacobian_matches_finite_differences(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-untyped-def]
-    args = make_problem(geom, seed, torque_end, theta, max(h, 0.01), p_zero)
+    args, away_from_kinks = _fd_point(geom, seed, torque_end, theta, max(h, 0.01), p_zero)
+    assume(away_from_kinks)
     z, rest = args[0], args[1:]
-    pairs = naive_model(*args)["pairs"]
-    assume(min(math.hypot(a, b) for a, b in pairs.values()) > KINK_MIN)
     Fk, Jk, _ = kernel(*args)
     Jfd_kernel = fd_jacobian(lambda zz: kernel(zz, *rest, want_J=False)[0], z)
     _check_jacobian(Jk, Jfd_kernel, Fk, "kernel J vs FD of kernel F")
     Jfd_naive = fd_jacobian(lambda zz: naive_residual(zz, *rest), z)
     _check_jacobian(Jk, Jfd_naive, Fk, "kernel J vs FD of naive F")
+
+
+@pytest.mark.parametrize("geom", ["curved", "two_pieces"])
+@settings(max_examples=10, deadline=None, derandomize=True, database=None)
+@given(mu_s=st.floats(0.01, 0.5), p_zero=st.sampled_from([0.0, 1.0]), **problem_args)
+def test_smoothed_residual_and_jacobian(geom, seed, torque_end, theta, h, mu_s, p_zero):  # type: ignore[no-untyped-def]
+    """``mu_s > 0`` (smoothing continuation): F vs naive, J vs FD; smooth everywhere, kinks too."""
+    args = make_problem(geom, seed, torque_end, theta, max(h, 0.01), p_zero)
+    z, rest = args[0], args[1:]
+    Fk, Jk, _ = kernel(*args, mu_s=mu_s)
+    Fn = naive_residual(*args, mu_s=mu_s)
+    assert np.abs(Fk - Fn).max() <= F_RTOL * (1.0 + np.abs(Fn).max())
+    Jfd = fd_jacobian(lambda zz: kernel(zz, *rest, want_J=False, mu_s=mu_s)[0], z)
+    _check_jacobian(Jk, Jfd, Fk, "smoothed: kernel J vs FD of kernel F")
 
 
 # ---- 3. the Fischer-Burmeister function -------------------------------------------------------
@@ -291,17 +311,22 @@ def test_fb_cancellation_free(a, b):  # type: ignore[no-untyped-def]
         assert ref > 0.0 and abs(fb_plain(a, b) - ref) > 1e-6 * ref  # why the form matters
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="kernel fb forms 2*a*b before dividing: for a, b > 0 with a*b below ~2e-308 the product "
-    "is subnormal (digits lost) and below ~5e-324 it is 0, so fb(1e-200, 1e-200) == 0 although the "
-    "true value 5.86e-201 is representable (fb = 0 iff a, b >= 0 and ab = 0 fails)",
-)
 @pytest.mark.parametrize("a, b", [(1e-200, 1e-200), (1e-160, 1e-170), (1e-150, 1e-160)])
 def test_fb_tiny_positive_pairs(a, b):  # type: ignore[no-untyped-def]
+    """a * b would underflow; the kernel divides first."""
     ref = fb_exact(a, b)
     assert ref > 0.0
     assert abs(fb(a, b) - ref) <= FB_RTOL * ref
+
+
+@settings(max_examples=100, deadline=None, derandomize=True, database=None)
+@given(a=st.floats(-1e6, 1e6), b=st.floats(-1e6, 1e6), mu=st.floats(1e-8, 1.0))
+def test_fb_smooth_accuracy(a, b, mu):  # type: ignore[no-untyped-def]
+    val, rho = fb_smooth(a, b, mu)
+    ref = fb_smooth_exact(a, b, mu)
+    assert abs(val - ref) <= 8e-16 * abs(ref) + 1e-300, (a, b, mu, val, ref)
+    assert math.isclose(rho, math.sqrt(a * a + b * b + 2 * mu * mu), rel_tol=1e-15)
+    assert (val == 0.0) == (ref == 0.0)
 
 
 def test_fb_simple_values():

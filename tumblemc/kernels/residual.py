@@ -76,7 +76,10 @@ def fb(a, b):  # type: ignore[no-untyped-def]
     r = math.hypot(a, b)
     s = a + b
     if s > 0.0:
-        return 2.0 * a * b / (s + r)
+        # a * b first would underflow for tiny a, b; ordering keeps fb(a, b) == fb(b, a);
+        # the exact value never exceeds min(a, b)
+        lo = min(a, b)
+        return min(2.0 * (lo / (s + r)) * max(a, b), lo)
     return s - r
 
 
