@@ -31,7 +31,7 @@ def test_simulate_writes_netcdf_and_png(tmp_path, capsys):
     assert rc == 0, captured.err
     assert "wrote" in captured.out and "status" in captured.out
     with xr.open_dataset(out, engine="netcdf4") as ds:
-        assert ds.sizes["time"] == 501
+        assert ds.sizes["time"] == round(float(SHORT) / float(ds.attrs["dt"])) + 1
         for name in ds.data_vars:
             assert ds[name].attrs.get("units"), name
             assert ds[name].attrs.get("long_name"), name

@@ -269,8 +269,19 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
         if not accepted:
             status = ST_LINESEARCH
             break
+        fnew = 0.0
         for i in range(n):
             z[i] = ws.zt[i]
+            v = abs(ws.Ft[i])
+            if v > fnew:
+                fnew = v
+        if mu_s == 0.0 and fnew <= tol:
+            # converged at the accepted point: its residual is known, skip the Jacobian
+            for i in range(n):
+                F[i] = ws.Ft[i]
+            fnorm = fnew
+            status = ST_OK
+            break
         theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
     out[0] = it
     out[1] = fallbacks

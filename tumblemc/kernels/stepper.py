@@ -344,6 +344,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     Jth = np.zeros((3, 3))
     iters = np.zeros(3, np.int64)
     zwarm = np.zeros(n)
+    zprev = np.zeros(n)
+    ncont = 0  # consecutive full-length contact solves (for the extrapolated warm start)
     touching = np.zeros(K, np.int64)
     maxdepth = int(opts[O_MAXDEPTH])
 
@@ -438,7 +440,18 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     zwarm[i] = z[i]
                 for attempt in range(N_ATTEMPTS):
                     guess = STRATEGY_GUESS[attempt]
-                    if guess == 0:
+                    if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
+                        # smooth motion: extrapolate the last two solutions (O(h^2) warm start)
+                        for i in range(n):
+                            z[i] = 2.0 * zwarm[i] - zprev[i]
+                        off = 6
+                        for kp in range(K):
+                            mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                            for i in range(off + B_SIG, off + B_L + mk + 2):
+                                if i == off + B_SIG or i >= off + B_L:
+                                    z[i] = max(z[i], 0.0)
+                            off += B_FIXED + mk
+                    elif guess == 0:
                         for i in range(n):
                             z[i] = zwarm[i]
                     else:
@@ -505,6 +518,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     step_failed = True
             if res > acc_res:
                 acc_res = res
+            if flight or hc != h or st != ST_OK:
+                ncont = 0
+            else:
+                for i in range(n):
+                    zprev[i] = zwarm[i]
+                ncont += 1
             # --- commit
             for i in range(n):
                 if not z[i] == z[i]:
