@@ -175,7 +175,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         **overrides,
     )
     out.parent.mkdir(parents=True, exist_ok=True)
-    netcdf_ready(ds).to_netcdf(out, engine="netcdf4")
+    safe = netcdf_ready(ds)
+    safe.to_netcdf(out, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
     print(f"wrote {out}")
     if args.plot:
         from .plotting import plot_run

@@ -166,7 +166,8 @@ def _strip_offsets(outlines: list[tuple[np.ndarray, np.ndarray]], length: float)
     right = max(0.0, float(np.max(np.maximum(hi[:-1] - lo[1:] + gap, mid[:-1] - mid[1:] + label_w))))
     # leftward spread (downhill motion): hi[k+1] + e <= lo[k] - gap, mid[k+1] + e <= mid[k] - label_w
     left = min(0.0, float(np.min(np.minimum(lo[:-1] - hi[1:] - gap, mid[:-1] - mid[1:] - label_w))))
-    extra = right if right <= -left else left
+    # spread in the direction of the net motion, so that time runs the way the robot goes
+    extra = right if mid[-1] >= mid[0] else left
     k = np.arange(n)
     span = float(np.ptp(np.concatenate([lo + k * extra, hi + k * extra])))
     pitch = max(size + gap, label_w)
