@@ -101,6 +101,7 @@ STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False,
 STRATEGY_SMOOTH = (False, False, False, False, True, True, False, True, False, True)
 N_ATTEMPTS = 10
 SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
+FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
 
@@ -246,6 +247,38 @@ def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, H
     else:
         z[off + B_LT] = 0.0
         z[off + B_LO] = 0.0
+
+
+@jit
+def _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, xend, tmp):  # type: ignore[no-untyped-def]
+    """Whether the free-flight solution ``z6`` keeps every piece above the plane at the end
+    of the step (then it is the exact solution of the step). ``xend``, ``R`` receive the
+    end pose."""
+    quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
+    quat_to_rot(qn, R)
+    for i in range(3):
+        xend[i] = state[i] + hc * z6[i]
+    for kp in range(geo.pstart.shape[0] - 1):
+        if lowest_point(xend, R, prm, geo, kp, tmp, LOW_TOL) <= FLIGHT_MARGIN:
+            return False
+    return True
+
+
+@jit
+def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb):  # type: ignore[no-untyped-def]
+    """Write the free-flight solution into ``z``: velocities from ``z6``, contact blocks
+    at their closest points with zero forces (a warm start for the next landing)."""
+    for i in range(6):
+        z[i] = z6[i]
+    off = 6
+    for kp in range(geo.pstart.shape[0] - 1):
+        mk = geo.pstart[kp + 1] - geo.pstart[kp]
+        _landing_guess(z, off, mk, kp, xend, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
+        z[off + B_L + mk + 1] = 0.0
+        z[off + B_SIG] = 0.0
+        z[off + B_LT] = 0.0
+        z[off + B_LO] = 0.0
+        off += B_FIXED + mk
 
 
 @jit
@@ -397,27 +430,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
                 acc_nit += iters[0]
             if st6 == ST_OK:
-                quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
-                quat_to_rot(qn, R)
-                for i in range(3):
-                    tmp3[i] = state[i] + hc * z6[i]
-                flight = True
-                for kp in range(K):
-                    if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL) <= 1e-9:
-                        flight = False
-                        break
+                flight = _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp)
             if flight:
-                for i in range(6):
-                    z[i] = z6[i]
-                off = 6
-                for kp in range(K):
-                    mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                    _landing_guess(z, off, mk, kp, tmp3, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
-                    z[off + B_L + mk + 1] = 0.0
-                    z[off + B_SIG] = 0.0
-                    z[off + B_LT] = 0.0
-                    z[off + B_LO] = 0.0
-                    off += B_FIXED + mk
+                _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
                 st = ST_OK
                 res = res6
             else:
@@ -481,32 +496,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         z6[i] = zsave[i]
                     st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
                     acc_nit += iters[0]
-                    if st6 == ST_OK:
-                        quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
-                        quat_to_rot(qn, R)
-                        for i in range(3):
-                            tmp3[i] = state[i] + hc * z6[i]
-                        lifted = True
-                        for kp in range(K):
-                            if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL) <= 0.0:
-                                lifted = False
-                                break
-                        if lifted:
-                            for i in range(n):
-                                z[i] = zsave[i]
-                            for i in range(6):
-                                z[i] = z6[i]
-                            off = 6
-                            for kp in range(K):
-                                mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                                _landing_guess(z, off, mk, kp, tmp3, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
-                                z[off + B_L + mk + 1] = 0.0
-                                z[off + B_SIG] = 0.0
-                                z[off + B_LT] = 0.0
-                                z[off + B_LO] = 0.0
-                                off += B_FIXED + mk
-                            st = ST_OK
-                            res = res6
+                    if st6 == ST_OK and _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp):
+                        for i in range(n):
+                            z[i] = zsave[i]
+                        _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+                        st = ST_OK
+                        res = res6
                 if st != ST_OK and depth < maxdepth:
                     for i in range(n):
                         z[i] = zsave[i]
