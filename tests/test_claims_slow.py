@@ -82,7 +82,7 @@ HEIGHT = 100e-6
 
 @pytest.mark.xfail(
     strict=True,
-    reason="at dt=5e-5, 4 of 20 runs have 1-3 non-converged steps (of 40000) where the robot spins "
+    reason="at dt=5e-5, 5 of 20 runs have 1-3 non-converged steps (of 40000), where the robot spins "
     "about the normal while sliding on an edge and no NCP solution is found near the warm start; "
     "max penetration 2e-7 m (docs/validation.md)",
 )

@@ -25,6 +25,7 @@ from .layout import (
     N_REC,
     N_SC,
     O_MAXDEPTH,
+    O_MAXIT,
     P_ADHC,
     P_EB,
     P_ELECT_FLIGHT,
@@ -101,6 +102,7 @@ STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False,
 STRATEGY_SMOOTH = (False, False, False, False, True, True, False, True, False, True)
 N_ATTEMPTS = 10
 SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
+FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
@@ -378,9 +380,15 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     iters = np.zeros(3, np.int64)
     zwarm = np.zeros(n)
     zprev = np.zeros(n)
+    zprev2 = np.zeros(n)
     ncont = 0  # consecutive full-length contact solves (for the extrapolated warm start)
     touching = np.zeros(K, np.int64)
     maxdepth = int(opts[O_MAXDEPTH])
+    # plain and projected attempts that have not converged after FAST_MAXIT iterations
+    # rarely do: move on to the next strategy (the smoothing continuation and sub-steps
+    # keep max_iter)
+    opts_fast = opts.copy()
+    opts_fast[O_MAXIT] = min(opts[O_MAXIT], FAST_MAXIT)
 
     area_prev = 0.0
     any_touch = False
@@ -457,8 +465,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
                         # smooth motion: extrapolate the last two solutions (O(h^2) warm start)
-                        for i in range(n):
-                            z[i] = 2.0 * zwarm[i] - zprev[i]
+                        if ncont >= 3:
+                            for i in range(n):
+                                z[i] = 3.0 * zwarm[i] - 3.0 * zprev[i] + zprev2[i]
+                        else:
+                            for i in range(n):
+                                z[i] = 2.0 * zwarm[i] - zprev[i]
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
@@ -484,7 +496,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                             _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
                     smooth = SMOOTH0 if STRATEGY_SMOOTH[attempt] else 0.0
-                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts, iters, STRATEGY_PROJECT[attempt], smooth)
+                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts if (smooth > 0.0 or depth > 0) else opts_fast, iters, STRATEGY_PROJECT[attempt], smooth)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
@@ -517,6 +529,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 ncont = 0
             else:
                 for i in range(n):
+                    zprev2[i] = zprev[i]
                     zprev[i] = zwarm[i]
                 ncont += 1
             # --- commit
