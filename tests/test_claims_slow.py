@@ -82,9 +82,9 @@ HEIGHT = 100e-6
 
 @pytest.mark.xfail(
     strict=True,
-    reason="at dt=5e-5, 5 of 20 runs have 1-3 non-converged steps (of 40000), where the robot spins "
-    "about the normal while sliding on an edge and no NCP solution is found near the warm start; "
-    "max penetration 2e-7 m (docs/validation.md)",
+    reason="at dt=5e-5, 1 step of 800000 (run 7) does not converge at any strategy or sub-step: the "
+    "robot spins about the normal while sliding on an edge; 4e-7 m penetration there "
+    "(docs/validation.md)",
 )
 def test_nonplanar_magnetisation_runs_without_failed_steps(nonplanar) -> None:  # type: ignore[no-untyped-def]
     """Issue 2 acceptance: 20 runs, random tilt axes and offsets up to 30 deg (roll, yaw)."""
@@ -94,6 +94,6 @@ def test_nonplanar_magnetisation_runs_without_failed_steps(nonplanar) -> None:  
 
 def test_nonplanar_magnetisation_failures_stay_rare(nonplanar) -> None:  # type: ignore[no-untyped-def]
     """Regression guard for the shortfall above: failures stay isolated and shallow."""
-    assert sum(s["failed_steps"] for s in nonplanar) <= 10
+    assert sum(s["failed_steps"] for s in nonplanar) <= 3
     assert max(s["max_penetration"] for s in nonplanar) <= 5e-3 * HEIGHT
     assert all(s["status"] == 0 for s in nonplanar)

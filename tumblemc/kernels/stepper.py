@@ -97,12 +97,12 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # lowest vertex (or exactly tied edge) with impact and predicted-sliding forces; 3: the
 # face of guess 1 with those forces (a face slapping down while sliding). Then plain, projected or
 # smoothed Newton.
-STRATEGY_GUESS = (0, 0, 1, 1, 0, 1, 2, 2, 3, 3)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False)
-STRATEGY_SMOOTH = (False, False, False, False, True, True, False, True, False, True)
-N_ATTEMPTS = 10
-SMOOTH0 = 1e-2  # first smoothing parameter of the smoothed attempts
+STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False)
+STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1)  # first mu
+N_ATTEMPTS = 12
 FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
+SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
@@ -389,6 +389,10 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     # keep max_iter)
     opts_fast = opts.copy()
     opts_fast[O_MAXIT] = min(opts[O_MAXIT], FAST_MAXIT)
+    # the smoothing continuation converges slowly (100-300 iterations) but finds the
+    # impulsive feature switches that the plain attempts miss; it only runs at such events
+    opts_smooth = opts.copy()
+    opts_smooth[O_MAXIT] = max(opts[O_MAXIT], SMOOTH_MAXIT)
 
     area_prev = 0.0
     any_touch = False
@@ -495,8 +499,14 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                             tolg = VERTEX_TOL if guess == 2 else (RESTART_TOL if guess == 1 else FACE_TOL)
                             _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
-                    smooth = SMOOTH0 if STRATEGY_SMOOTH[attempt] else 0.0
-                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts if (smooth > 0.0 or depth > 0) else opts_fast, iters, STRATEGY_PROJECT[attempt], smooth)
+                    smooth = STRATEGY_SMOOTH[attempt]
+                    if smooth > 0.0:
+                        opts_use = opts_smooth
+                    elif depth > 0:
+                        opts_use = opts
+                    else:
+                        opts_use = opts_fast
+                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
