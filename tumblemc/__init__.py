@@ -10,7 +10,7 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.1.0.dev0"
 
-from .params import PRESETS, Params, SolverOptions  # noqa: E402
-from .simulate import simulate, summarize  # noqa: E402
+from .params import PRESETS, Params, SolverOptions
+from .simulate import simulate, summarize
 
-__all__ = ["simulate", "summarize", "Params", "PRESETS", "SolverOptions", "__version__"]
+__all__ = ["PRESETS", "Params", "SolverOptions", "__version__", "simulate", "summarize"]

@@ -190,4 +190,4 @@ class SolverOptions:
         return a
 
 
-__all__ = ["Params", "PRESETS", "SolverOptions", "get_preset"]
+__all__ = ["PRESETS", "Params", "SolverOptions", "get_preset"]

@@ -10,7 +10,6 @@ rows show which parameter decides it.
 from __future__ import annotations
 
 import csv
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -302,4 +301,4 @@ def run_validation(out_dir: str | Path = "validation", quick: bool = False) -> i
     return 0
 
 
-__all__ = ["run_validation", "convergence", "default_dt", "CONVERGENCE_DTS", "math"]
+__all__ = ["CONVERGENCE_DTS", "convergence", "default_dt", "run_validation"]

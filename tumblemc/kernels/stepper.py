@@ -61,11 +61,7 @@ from .layout import (
     S_BEND,
     S_FEXT,
     S_H,
-    S_Q,
     S_TM,
-    S_V,
-    S_W,
-    S_X,
     ST_NAN,
     ST_OK,
 )
@@ -620,4 +616,4 @@ def empty_record(n_steps: int, record_every: int) -> np.ndarray:
     return np.zeros((n_records(n_steps, record_every), N_REC))
 
 
-__all__ = ["Geometry", "Workspace", "run", "field_dir", "empty_record", "n_records"]
+__all__ = ["Geometry", "Workspace", "empty_record", "field_dir", "n_records", "run"]
