@@ -81,6 +81,23 @@ class Shape:
         """CM height above the plane when lying with body +z along -n (MODEL.md)."""
         return max(float(np.max(p.support_points[:, 2])) + p.support_pad for p in self.pieces)
 
+    def rest_face_area(self, line_contact_fraction: float) -> float:
+        """Adhering area (m^2) in the initial pose, lying with body +z along -n: the
+        constraints of the lowest piece(s) whose outward normal is body +z at the rest
+        height, with the same rule as the time-stepper (one flat face: its area; otherwise
+        ``line_contact_fraction`` x the smallest)."""
+        h = self.rest_height()
+        total = 0.0
+        for p in self.pieces:
+            if float(np.max(p.support_points[:, 2])) + p.support_pad < h - 1e-12:
+                continue
+            down = [c for c in p.constraints if c.kind == "plane" and abs(c.data[2] - 1.0) < 1e-9 and abs(c.data[3] - h) < 1e-12]
+            if len(down) == 1 and not down[0].line:
+                total += down[0].area
+            elif down:
+                total += line_contact_fraction * min(c.area for c in down)
+        return total
+
     def geometry(self) -> Geometry:
         """Kernel arrays in scaled units (length unit ``tumblemc.units.LENGTH_M``)."""
         cons = [c for p in self.pieces for c in p.constraints]

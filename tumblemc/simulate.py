@@ -90,6 +90,7 @@ class RunSpec:
     n_steps: int
     record_every: int
     solver: SolverOptions
+    lift_m: float = 0.0
 
     @property
     def h(self) -> float:
@@ -172,7 +173,7 @@ def prepare(
             raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
     state0[7:10] = np.asarray(v0, dtype=float) / u.velocity
     state0[10:13] = np.asarray(omega0, dtype=float) * u.time
-    return RunSpec(shp, params, incline_deg, field_mT, freq_hz, duration_s, dt, torque, u, shp.geometry(), prm, state0, n_steps, record_every, solver)
+    return RunSpec(shp, params, incline_deg, field_mT, freq_hz, duration_s, dt, torque, u, shp.geometry(), prm, state0, n_steps, record_every, solver, lift_m)
 
 
 def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = None) -> tuple[np.ndarray, int, int]:
@@ -182,8 +183,11 @@ def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = Non
     rec = empty_record(spec.n_steps, spec.record_every)
     z = np.zeros(n)
     state = spec.state0.copy()
+    # the robot starts lying on a face (MODEL.md), unless lifted: that face adheres from step 1
+    resting = spec.lift_m == 0.0
+    area0 = spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0
     status, failed = run(
-        spec.geo, spec.prm, state, 0.0, spec.h, spec.n_steps, spec.record_every, spec.solver.as_array(), rec, ws, ws6, z, np.zeros(6), np.zeros(n)
+        spec.geo, spec.prm, state, 0.0, spec.h, spec.n_steps, spec.record_every, spec.solver.as_array(), rec, ws, ws6, z, np.zeros(6), np.zeros(n), area0, resting
     )
     return rec, int(status), int(failed)
 

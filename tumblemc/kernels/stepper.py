@@ -66,6 +66,7 @@ from .layout import (
     ST_OK,
 )
 from .newton import Workspace, solve
+from .residual import residual
 
 Geometry = namedtuple(
     "Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"]
@@ -248,6 +249,16 @@ def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, H
 
 
 @jit
+def _plain_residual(z, sc, prm, geo, ws):  # type: ignore[no-untyped-def]
+    """Max-norm of the model's (unsmoothed) residual at ``z``."""
+    residual(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws.Ft, ws.Jt, False, ws.Ft_isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, 0.0)
+    r = 0.0
+    for i in range(z.shape[0]):
+        r = max(r, abs(ws.Ft[i]))
+    return r
+
+
+@jit
 def _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, xend, tmp):  # type: ignore[no-untyped-def]
     """Whether the free-flight solution ``z6`` keeps every piece above the plane at the end
     of the step (then it is the exact solution of the step). ``xend``, ``R`` receive the
@@ -329,7 +340,7 @@ def _contact_state(z, geo, prm, x, w, v, tmp, tmp2):  # type: ignore[no-untyped-
 
 
 @jit
-def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave):  # type: ignore[no-untyped-def]
+def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave, area0, touch0):  # type: ignore[no-untyped-def]
     """Integrate ``n_steps`` steps; returns ``(status, failed_steps)``.
 
     Parameters
@@ -348,6 +359,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         Workspaces for the full system and for the 6-unknown free-flight system.
     z, z6, zsave : float64[n], float64[6], float64[n]
         Unknowns (``z`` holds the warm start in and the last solution out).
+    area0, touch0 : float, bool
+        Contact state at ``t0`` (adhering area, touching): the robot starts lying on a
+        face, so the first step already feels that face's adhesion.
 
     Notes
     -----
@@ -377,8 +391,11 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     zwarm = np.zeros(n)
     zprev = np.zeros(n)
     zprev2 = np.zeros(n)
+    zbest = np.zeros(n)
     ncont = 0  # consecutive full-length contact solves (for the extrapolated warm start)
     touching = np.zeros(K, np.int64)
+    if touch0:
+        touching[:] = 1
     maxdepth = int(opts[O_MAXDEPTH])
     # plain and projected attempts that have not converged after FAST_MAXIT iterations
     # rarely do: move on to the next strategy (the smoothing continuation and sub-steps
@@ -390,8 +407,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     opts_smooth = opts.copy()
     opts_smooth[O_MAXIT] = max(opts[O_MAXIT], SMOOTH_MAXIT)
 
-    area_prev = 0.0
-    any_touch = False
+    area_prev = area0
+    any_touch = touch0
     mode = 0
     lnsum = 0.0
     slip = 0.0
@@ -407,8 +424,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     acc_pen = 0.0
     acc_fail = 0
 
-    def_row = 0
-    _record(rec, def_row, t, state, 0.0, 0.0, 0.0, 0, 0.0, 0, 0.0, 0, 0, 0.0, 0, z, -1)
+    row = 0
+    _record(rec, row, t, state, 0.0, 0.0, 0.0, 0, 0.0, 0, 0.0, 0, 0, 0.0, 0, z, -1)
     status = ST_OK
     for step in range(n_steps):
         remaining = h
@@ -461,6 +478,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 res = math.inf
                 for i in range(n):
                     zwarm[i] = z[i]
+                res_best = math.inf
                 for attempt in range(N_ATTEMPTS):
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
@@ -474,9 +492,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            for i in range(off + B_SIG, off + B_L + mk + 2):
-                                if i == off + B_SIG or i >= off + B_L:
-                                    z[i] = max(z[i], 0.0)
+                            for i in range(off + B_SIG, off + B_L + mk + 2):  # sigma, l_i, l_s, lam_n
+                                z[i] = max(z[i], 0.0)
                             off += B_FIXED + mk
                     elif guess == 0:
                         for i in range(n):
@@ -507,6 +524,14 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
                         break
+                    # remember the attempt with the smallest residual of the model itself
+                    # (a smoothed attempt reports its smoothed residual)
+                    if smooth > 0.0:
+                        res = _plain_residual(z, sc, prm, geo, ws)
+                    if res < res_best:
+                        res_best = res
+                        for i in range(n):
+                            zbest[i] = z[i]
                 if st != ST_OK and not clear:
                     # lift-off that the explicit pre-check hid: the free-flight solution, if
                     # it clears the plane, is the exact solution of the step
@@ -528,7 +553,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     acc_sub += 1
                     continue
                 if st != ST_OK:
+                    # nothing converged at the smallest sub-step: keep the best attempt and
+                    # count the step as failed
                     step_failed = True
+                    res = res_best
+                    for i in range(n):
+                        z[i] = zbest[i]
             if res > acc_res:
                 acc_res = res
             if flight or hc != h or st != ST_OK:
@@ -552,6 +582,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             for i in range(4):
                 state[3 + i] = qn[i]
             t += hc
+            if remaining - hc <= 1e-12 * h:
+                t = t0 + (step + 1) * h  # whole steps: no accumulated rounding in time
             remaining -= hc
             mode, area_prev, lnsum, slip, ecp_off = _contact_state(z, geo, prm, state[0:3], state[10:13], state[7:10], tmp, tmp2)
             adh = prm[P_ADHC] * area_prev
@@ -571,9 +603,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             failed_total += 1
         if status == ST_NAN:
             break
-        if (step + 1) % record_every == 0:
-            def_row += 1
-            _record(rec, def_row, t, state, lnsum, adh, area_prev, mode, slip, acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off)
+        if (step + 1) % record_every == 0 or step == n_steps - 1:
+            row += 1
+            _record(rec, row, t, state, lnsum, adh, area_prev, mode, slip, acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off)
             acc_nit = 0
             acc_res = 0.0
             acc_fb = 0
@@ -608,7 +640,7 @@ def _record(rec, row, t, state, lnsum, adh, area, mode, slip, nit, res, nfb, nsu
 
 def n_records(n_steps: int, record_every: int) -> int:
     """Rows of ``rec`` for a run."""
-    return n_steps // record_every + 1
+    return -(-n_steps // record_every) + 1  # the last step is always recorded
 
 
 def empty_record(n_steps: int, record_every: int) -> np.ndarray:
