@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import xarray as xr
 
 import tumblemc
 from tumblemc.params import PRESETS, Params
@@ -68,3 +69,134 @@ def test_summarize_needs_a_full_window() -> None:
     ds = tumblemc.simulate(duration_s=0.5)
     with pytest.raises(ValueError, match="too short"):
         tumblemc.summarize(ds)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "names"),
+    [
+        ({"record_every": 2.5}, ["record_every", "integer"]),
+        ({"v0": "abc"}, ["v0"]),
+        ({"shape": ["cuboid"]}, ["shape"]),
+        ({"duration_s": 1e4, "dt": 1e-9}, ["duration_s", "record_every", "GiB"]),
+        ({"mass": True}, ["mass"]),
+    ],
+)
+def test_more_bad_input(kwargs: dict, names: list[str]) -> None:
+    with pytest.raises(ValueError) as err:
+        tumblemc.simulate(**{"duration_s": 0.001, **kwargs})
+    for n in names:
+        assert n in str(err.value)
+
+
+def test_solver_options_need_integers() -> None:
+    with pytest.raises(ValueError, match="max_iter"):
+        tumblemc.SolverOptions(max_iter=2.5)  # type: ignore[arg-type]
+
+
+def test_summarize_rejects_bad_arguments() -> None:
+    ds = tumblemc.simulate(duration_s=2.0, dt=5e-4)
+    for kw in ({"transient_periods": math.nan}, {"transient_periods": -1.0}, {"min_window_periods": -1.0}, {"threshold": math.inf}):
+        with pytest.raises(ValueError, match=next(iter(kw))):
+            tumblemc.summarize(ds, **kw)
+
+
+def _synthetic(speed: float, freq: float = 2.0, dt: float = 1e-3, duration: float = 2.0) -> "xr.Dataset":
+    import xarray as xr
+
+    t = np.arange(round(duration / dt) + 1) * dt
+    prog = np.where(t < 0.3, -1e-4, -1e-4 + speed * (t - 0.3))  # a transient, then steady
+    n = len(t)
+    ds = xr.Dataset(
+        {
+            "progress": ("time", prog),
+            "penetration": ("time", np.zeros(n)),
+            "failed": ("time", np.zeros(n, np.int32)),
+            "newton_iterations": ("time", np.r_[0, np.full(n - 1, 2)]),
+            "slip_speed": ("time", np.full(n, 3e-5)),
+            "substeps": ("time", np.zeros(n, np.int32)),
+            "fallbacks": ("time", np.zeros(n, np.int32)),
+        },
+        coords={"time": t},
+    )
+    ds.attrs.update(freq_hz=freq, ideal_speed=1.8e-3 * freq, n_steps=n - 1, status=0, failed_steps=0, dt=dt)
+    return ds
+
+
+def test_summarize_arithmetic_on_a_known_series() -> None:
+    speed = 2.7e-3
+    s = tumblemc.summarize(_synthetic(speed), transient_periods=1.0)  # window starts at 0.5 s
+    assert s["mean_speed"] == pytest.approx(speed, rel=1e-12)
+    assert s["ideal_speed"] == pytest.approx(3.6e-3)
+    assert s["progress_ratio"] == pytest.approx(0.75, rel=1e-12)
+    assert s["climbed"] is True
+    assert tumblemc.summarize(_synthetic(speed), threshold=0.8)["climbed"] is False
+    assert s["mean_newton_iterations"] == pytest.approx(2.0)
+    # a window that includes the transient sees a lower speed
+    assert tumblemc.summarize(_synthetic(speed), transient_periods=0.0)["mean_speed"] < speed
+
+
+def test_failed_run_has_no_verdict() -> None:
+    ds = _synthetic(2.7e-3)
+    ds.attrs["status"] = 3
+    s = tumblemc.summarize(ds)
+    assert math.isnan(s["progress_ratio"]) and s["climbed"] is False and s["status"] == 3
+
+
+def test_last_step_is_always_recorded() -> None:
+    ds = tumblemc.simulate(duration_s=0.0101, dt=1e-4, record_every=4)
+    assert ds["time"].values[-1] == pytest.approx(0.0101, abs=1e-15)
+    full = tumblemc.simulate(duration_s=0.0101, dt=1e-4)
+    assert int(ds["newton_iterations"].sum()) == int(full["newton_iterations"].sum())
+    assert float(ds["penetration"].max()) == float(full["penetration"].max())
+    np.testing.assert_array_equal(ds["position"].values[-1], full["position"].values[-1])
+
+
+def test_field_direction_convention() -> None:
+    from tumblemc.kernels import layout as L
+    from tumblemc.kernels.stepper import field_dir
+    from tumblemc.simulate import plane_frame, prepare
+
+    spec = prepare(incline_deg=30.0, freq_hz=2.0, duration_s=0.001)
+    fr = plane_frame(30.0)
+    out = np.zeros(3)
+    field_dir(spec.prm, 0.0, out)
+    np.testing.assert_allclose(out, fr["u"], atol=1e-15)  # along the uphill direction at t=0
+    quarter = 0.25 / spec.prm[L.P_FREQ]
+    field_dir(spec.prm, quarter, out)
+    np.testing.assert_allclose(out, -fr["n"], atol=1e-12)  # toward -n a quarter period later
+
+
+def test_positive_offset_first_tips_backwards_then_climbs() -> None:
+    ds = tumblemc.simulate(preset="paper", duration_s=2.0, dt=1e-4)
+    assert ds["omega"].values[1:20, 0].max() < 0.0  # rotation against the tumbling sense
+    assert ds["progress"].values[50] < 0.0
+    assert tumblemc.summarize(ds)["climbed"]
+
+
+def test_torque_at_end_of_step_runs_and_tracks_no_slip() -> None:
+    s = tumblemc.summarize(tumblemc.simulate(preset="paper", duration_s=2.0, dt=1e-4, torque="end"))
+    assert s["failed_steps"] == 0
+    assert s["progress_ratio"] == pytest.approx(1.0, abs=0.02)
+
+
+def test_contact_state_classification() -> None:
+    from tumblemc.kernels.stepper import _contact_state
+    from tumblemc.shapes import cuboid
+    from tumblemc.simulate import prepare
+
+    spec = prepare(duration_s=0.001, line_contact_fraction=0.1)
+    geo, prm = spec.geo, spec.prm
+    shp = cuboid()
+    areas = np.array([c.area for c in shp.pieces[0].constraints]) / 1e-8  # scaled
+    z = np.zeros(24)
+    z[23] = 1.0  # lam_n > 0
+    tmp, tmp2, zero = np.zeros(3), np.zeros(3), np.zeros(3)
+    z[16 + 4] = 1.0  # +z face alone: face contact with its area
+    mode, area, *_ = _contact_state(z, geo, prm, zero, zero, zero, tmp, tmp2)
+    assert mode == 2 and area == pytest.approx(areas[4])
+    z[16 + 2] = 0.7  # +y end too: an edge, line contact with fraction x smaller area
+    mode, area, *_ = _contact_state(z, geo, prm, zero, zero, zero, tmp, tmp2)
+    assert mode == 1 and area == pytest.approx(0.1 * min(areas[4], areas[2]))
+    z[23] = 0.0  # no normal force: no contact
+    mode, area, *_ = _contact_state(z, geo, prm, zero, zero, zero, tmp, tmp2)
+    assert mode == 0 and area == 0.0

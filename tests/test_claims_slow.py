@@ -53,12 +53,26 @@ def test_flat_paper_speed_near_no_slip() -> None:
 def test_adhesion_plateaus_on_45_deg_paper() -> None:
     ds, s = _summary(preset="paper", incline_deg=45.0)
     C = tumblemc.PRESETS["paper"].adhesion_C
+    L, W, H = 0.8e-3, 0.4e-3, 0.1e-3
     adh = ds["adhesion_force"].values
-    assert np.isclose(adh, C * 0.8e-3 * 0.4e-3, rtol=1e-6).any()  # 1.189e-6 N, face
-    assert np.isclose(adh, C * 0.4e-3 * 0.1e-3, rtol=1e-6).any()  # 1.486e-7 N, end
-    line = adh[ds["contact_mode"].values == 1]
-    assert line.size and line.max() < 0.1 * C * 0.4e-3 * 0.1e-3
+    mode = ds["contact_mode"].values
+    assert np.isclose(adh, C * L * W, rtol=1e-6).any()  # 1.189e-6 N, face
+    assert np.isclose(adh, C * W * H, rtol=1e-6).any()  # 1.486e-7 N, end
+    # every face-contact row is one of the faces; every line-contact row is the fraction of
+    # the smaller face at an edge (W H for edges to an end, L H for a side)
+    assert np.all(np.isclose(adh[mode == 2][:, None], C * np.array([L * W, W * H, L * H]), rtol=1e-9).any(axis=1))
+    line = adh[mode == 1]
+    assert line.size > 0
+    assert np.all(np.isclose(line[:, None], 0.05 * C * np.array([W * H, L * H]), rtol=1e-9).any(axis=1))
     assert s["failed_steps"] == 0
+
+
+def test_line_contact_adhesion_follows_the_fraction() -> None:
+    ds = tumblemc.simulate(preset="paper", incline_deg=45.0, duration_s=0.5, line_contact_fraction=0.2)
+    line = ds["adhesion_force"].values[ds["contact_mode"].values == 1]
+    C = tumblemc.PRESETS["paper"].adhesion_C
+    assert line.size > 0
+    assert np.all(np.isclose(line[:, None], 0.2 * C * np.array([0.4e-3 * 0.1e-3, 0.8e-3 * 0.1e-3]), rtol=1e-9).any(axis=1))
 
 
 def _nonplanar_runs():  # type: ignore[no-untyped-def]

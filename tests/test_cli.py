@@ -141,3 +141,15 @@ def test_plot_run_returns_figure(short_run, tmp_path):
     assert isinstance(fig, Figure)
     assert len(fig.axes) >= 4  # progress, contact, adhesion twin, strip (+ colorbar)
     assert (tmp_path / "fig.png").stat().st_size > 0
+
+
+def test_set_only_takes_physical_parameters(tmp_path, capsys):  # type: ignore[no-untyped-def]
+    rc = main(["simulate", "--duration-s", SHORT, "--out", str(tmp_path / "r.nc"), "--set", "shape=sphere"])
+    assert rc == 2
+    assert "shape" in capsys.readouterr().err
+
+
+def test_unwritable_output_is_a_clear_error(tmp_path, capsys):  # type: ignore[no-untyped-def]
+    rc = main(["simulate", "--duration-s", SHORT, "--out", str(tmp_path)])
+    assert rc == 2
+    assert "error:" in capsys.readouterr().err

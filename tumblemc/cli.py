@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__
+from .params import Params
 from .simulate import TORQUE_OPTIONS
 
 EXIT_OK = 0
@@ -67,6 +68,8 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
             raise _UsageError(f"--set {item!r} is not NAME=VALUE (allowed: e.g. --set mu=0.4)")
         if name in out:
             raise _UsageError(f"--set {name} given twice (allowed: once per parameter)")
+        if name not in Params.field_names():
+            raise _UsageError(f"--set {name}: unknown parameter (allowed: {', '.join(Params.field_names())}; options such as --dt have their own flags)")
         out[name] = parse_value(value)
     return out
 
@@ -229,6 +232,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "bench":
             return _cmd_bench(rest)
     except (ValueError, _UsageError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:  # an output path that cannot be written
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     parser.print_usage(sys.stderr)  # pragma: no cover - argparse requires a command

@@ -39,6 +39,8 @@ _NONNEG = ">= 0"
 
 def _check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: float | None = None) -> float:
     """Validate a scalar: finite float satisfying ``rule``; raise ValueError naming it."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name}={value!r} is not a number (allowed: a finite value {rule})")
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -173,6 +175,10 @@ class SolverOptions:
 
     def __post_init__(self) -> None:
         _check_number("tol", self.tol, _POSITIVE)
+        for name in ("max_iter", "max_substep_depth"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+                raise ValueError(f"{name}={v!r} is not allowed (allowed: an integer)")
         _check_number("max_iter", self.max_iter, "", 1, 10_000)
         _check_number("max_substep_depth", self.max_substep_depth, "", 0, 30)
         _check_number("armijo", self.armijo, "", 1e-12, 0.5)

@@ -25,6 +25,7 @@ from .units import LENGTH_M, Units
 #: (aluminum 20 deg binds: 0.895 at 1e-4 against 0.876).
 DEFAULT_DT = 5e-5
 TORQUE_OPTIONS = ("start", "end")
+MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
 
 
 def plane_frame(incline_deg: float) -> dict[str, np.ndarray]:
@@ -123,6 +124,10 @@ def prepare(
     """Validate the inputs of :func:`simulate` and build the scaled kernel data."""
     from .params import _check_number
 
+    if not isinstance(shape, (str, Shape)):
+        raise ValueError(f"shape={shape!r} is not allowed (allowed: a shape name or a tumblemc.shapes.Shape)")
+    if not isinstance(preset, (str, Params)):
+        raise ValueError(f"preset={preset!r} is not allowed (allowed: a preset name or a tumblemc.params.Params)")
     shp = get_shape(shape)
     params = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
     incline_deg = _check_number("incline_deg", incline_deg, "", -89.0, 89.0)
@@ -131,11 +136,19 @@ def prepare(
     duration_s = _check_number("duration_s", duration_s, "", 0.0, 1e4)
     dt = DEFAULT_DT if dt is None else _check_number("dt", dt, "", 1e-9, 1e-1)
     torque = _check_choice("torque", torque, TORQUE_OPTIONS)
-    record_every = int(_check_number("record_every", record_every, "", 1, 1e9))
+    if isinstance(record_every, bool) or not float(_check_number("record_every", record_every, "", 1, 1e9)).is_integer():
+        raise ValueError(f"record_every={record_every!r} is not allowed (allowed: an integer >= 1)")
+    record_every = int(record_every)
     solver = solver or SolverOptions()
-    n_steps = int(round(duration_s / dt))
+    n_steps = round(duration_s / dt)
     if n_steps < 1:
         raise ValueError(f"duration_s={duration_s!r} is shorter than one step dt={dt!r} (allowed: duration_s >= dt)")
+    rows = -(-n_steps // record_every) + 1
+    if rows * L.N_REC * 8 > MAX_RECORD_BYTES:
+        raise ValueError(
+            f"duration_s={duration_s!r} with dt={dt!r} and record_every={record_every} records {rows} rows "
+            f"({rows * L.N_REC * 8 / 2**30:.1f} GiB; allowed: up to {MAX_RECORD_BYTES / 2**30:.0f} GiB): raise record_every or dt"
+        )
 
     u = Units(mass=params.mass, g=params.g)
     fr = plane_frame(incline_deg)
@@ -167,8 +180,11 @@ def prepare(
     lift_m = _check_number("lift_m", lift_m, "", 0.0, 1.0)
     state0[0:3] = (shp.rest_height() + lift_m) / LENGTH_M * fr["n"]
     state0[3:7] = rot_to_quat(R0)
-    for name, vec, scale in (("v0", v0, u.velocity), ("omega0", omega0, 1.0 / u.time)):
-        arr = np.asarray(vec, dtype=float)
+    for name, vec in (("v0", v0), ("omega0", omega0)):
+        try:
+            arr = np.asarray(vec, dtype=float)
+        except (TypeError, ValueError):
+            arr = np.full(1, np.nan)
         if arr.shape != (3,) or not np.all(np.isfinite(arr)):
             raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
     state0[7:10] = np.asarray(v0, dtype=float) / u.velocity
@@ -327,8 +343,15 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         ``mean_speed`` (uphill, m/s), ``ideal_speed`` (hull perimeter x f, m/s),
         ``progress_ratio``, ``climbed`` (``progress_ratio >= threshold``),
         ``max_penetration`` (m), ``failed_steps``, ``mean_newton_iterations``,
-        ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``.
+        ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
+        ``status`` (0: ok; otherwise the run stopped early, speed and ratio are NaN and
+        ``climbed`` is False).
     """
+    from .params import _check_number
+
+    transient_periods = _check_number("transient_periods", transient_periods, "", 0.0, 1e6)
+    threshold = _check_number("threshold", threshold, "", -1e6, 1e6)
+    min_window_periods = _check_number("min_window_periods", min_window_periods, "", 0.0, 1e6)
     f = float(ds.attrs["freq_hz"])
     if not f > 0:
         raise ValueError("summarize needs a rotating field (freq_hz > 0)")
@@ -340,12 +363,15 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
             f"run too short: duration {t[-1]:.6g} s leaves {window:.6g} s after the transient of "
             f"{t0:.6g} s (allowed: at least {min_window_periods} field period(s) = {min_window_periods / f:.6g} s)"
         )
-    i0 = int(np.searchsorted(t, t0 - 1e-12))
+    i0 = int(np.searchsorted(t, t0 - 1e-9 * float(ds.attrs["dt"])))
     prog = ds["progress"].values
     dur = t[-1] - t[i0]
     mean_speed = (prog[-1] - prog[i0]) / dur
     ideal = float(ds.attrs["ideal_speed"])
     ratio = mean_speed / ideal
+    status = int(ds.attrs["status"])
+    if status != 0:  # the run stopped early (non-finite state): no verdict
+        mean_speed = ratio = math.nan
     n_steps = max(int(ds.attrs["n_steps"]), 1)
     return {
         "mean_speed": float(mean_speed),
@@ -353,10 +379,10 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         "progress_ratio": float(ratio),
         "climbed": bool(ratio >= threshold),
         "max_penetration": float(ds["penetration"].max()),
-        "failed_steps": int(ds["failed"].sum()),
+        "failed_steps": int(ds.attrs["failed_steps"]),
         "mean_newton_iterations": float(ds["newton_iterations"].sum()) / n_steps,
         "mean_slip_speed": float(ds["slip_speed"].values[i0:].mean()),
         "substeps": int(ds["substeps"].sum()),
         "fallbacks": int(ds["fallbacks"].sum()),
-        "status": int(ds.attrs["status"]),
+        "status": status,
     }
