@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from .params import PRESETS
 from .simulate import DEFAULT_DT, simulate, summarize
 
 CONVERGENCE_DTS = (5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
@@ -28,8 +29,10 @@ CONVERGENCE_CASES = (
     ("aluminum 20 deg", dict(preset="aluminum", incline_deg=20.0, freq_hz=1.0)),
     ("aluminum 30 deg", dict(preset="aluminum", incline_deg=30.0, freq_hz=1.0)),
 )
-FACE_ADHESION = 3.7148 * 0.8e-3 * 0.4e-3  # C L W, paper: 1.189e-6 N
-END_ADHESION = 3.7148 * 0.4e-3 * 0.1e-3  # C W H, paper: 1.486e-7 N
+_C = PRESETS["paper"].adhesion_C
+_L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
+FACE_ADHESION = _C * _L * _W  # paper: 1.189e-6 N
+END_ADHESION = _C * _W * _H  # paper: 1.486e-7 N
 
 
 @dataclass
@@ -52,8 +55,8 @@ class Report:
         self.rows.append(Row(*args, **kw))
 
 
-def _duration(freq_hz: float, periods: float = 2.0, minimum: float = 0.0) -> float:
-    return max(periods / freq_hz, minimum)
+def _duration(freq_hz: float, periods: float = 2.0) -> float:
+    return periods / freq_hz
 
 
 def _run(periods: float = 2.0, **kw: Any) -> tuple[Any, dict[str, Any], float]:
@@ -142,7 +145,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     fig = Figure(figsize=(7, 4))
     ax = fig.add_subplot()
     fa = np.array(freqs, dtype=float)
-    ax.plot(fa, 1.8e-3 * fa * 1e3, "k--", label="no-slip 2(L+H)f")
+    ax.plot(fa, 2 * (_L + _H) * fa * 1e3, "k--", label="no-slip 2(L+H)f")
     ax.plot(fa, np.array(speeds) * 1e3, "o-", label="simulated mean speed")
     ax.plot(fa, np.array(slips) * 1e3, "s-", label="mean slip speed")
     ax.set(xlabel="field frequency (Hz)", ylabel="mm/s", title="flat paper, 20 mT")
@@ -157,8 +160,8 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     end = np.isclose(adh, END_ADHESION, rtol=1e-3).any()
     line = adh[mode == 1]
     line_max = float(line.max()) if line.size else 0.0
-    frac = 0.05
-    line_ok = line.size > 0 and bool(np.all(np.isclose(line[:, None], frac * 3.7148 * np.array([0.4e-3 * 0.1e-3, 0.8e-3 * 0.1e-3]), rtol=1e-9).any(axis=1)))
+    frac = PRESETS["paper"].line_contact_fraction
+    line_ok = line.size > 0 and bool(np.all(np.isclose(line[:, None], frac * _C * np.array([_W * _H, _L * _H]), rtol=1e-9).any(axis=1)))
     ok = face and end and line_ok
     rep.add(
         "C5",
@@ -243,7 +246,7 @@ def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
         fails += s["failed_steps"]
         yaw = float(np.abs(ds["omega"].values[:, 2]).max())
         _robust(rep, f"non-planar {k}: axis {np.round(axis / np.linalg.norm(axis), 2).tolist()}, {ang:.1f} deg (max |w_z| {yaw:.1f} rad/s)", s, wall)
-    ok = fails == 0 and worst_pen <= 1e-3 * 100e-6
+    ok = fails == 0 and worst_pen <= 1e-3 * _H
     rep.add("R1", f"{n} runs, random tilt axes, offsets up to 30 deg (paper, flat, 1 Hz)", "failed steps; max penetration", f"{fails}; {worst_pen:.2e} m", "0; <= 1e-3 H = 1e-7 m", "pass" if ok else "FAIL")
 
 

@@ -40,6 +40,7 @@ from .layout import (
     P_O,
     P_T,
     P_TORQ,
+    P_TORQUE_END,
     P_U,
     R_ADH,
     R_AREA,
@@ -129,7 +130,15 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, sc, R, tmp, tmp2):  # t
     for i in range(3):
         sc[S_FEXT + i] = -push * prm[P_N + i]
     sc[S_FEXT + 2] -= m * prm[P_G]
-    if prm[P_FIELD_ON] > 0.5:
+    if prm[P_FIELD_ON] < 0.5:
+        for i in range(3):
+            sc[S_TM + i] = 0.0
+            sc[S_BEND + i] = 0.0
+    elif prm[P_TORQUE_END] > 0.5:  # the residual forms (R+ e_b) x B(t + h) itself
+        field_dir(prm, t + h, tmp2)
+        for i in range(3):
+            sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
+    else:  # torque at the start of the step: (R e_b) x B(t)
         quat_to_rot(state[3:7], R)
         for i in range(3):
             acc = 0.0
@@ -138,14 +147,8 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, sc, R, tmp, tmp2):  # t
             tmp[i] = acc
         field_dir(prm, t, tmp2)
         cross(tmp, tmp2, sc[S_TM : S_TM + 3])
-        field_dir(prm, t + h, tmp2)
         for i in range(3):
             sc[S_TM + i] *= prm[P_TORQ]
-            sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
-    else:
-        for i in range(3):
-            sc[S_TM + i] = 0.0
-            sc[S_BEND + i] = 0.0
     return push
 
 
