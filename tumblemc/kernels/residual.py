@@ -434,53 +434,42 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
 
     # ---- Fischer-Burmeister rows (row index == its complementarity variable) ---------
     theta = 0.0
-    if mu_s > 0.0:
+    if want_J and mu_s == 0.0:
         for i in range(n):
-            if isfb[i] == 0:
-                theta += F[i] * F[i]
-                continue
-            a = z[i]
-            b = fbb[i]
-            val, rho = fb_smooth(a, b, mu_s)
-            F[i] = val
-            theta += val * val
-            if want_J:
-                cb = 1.0 - b / rho
-                for j in range(n):
-                    J[i, j] *= cb
-                J[i, i] += 1.0 - a / rho
-        return 0.5 * theta
-    if want_J:
-        for i in range(n):
-            if isfb[i] == 1:
-                a = z[i]
-                b = fbb[i]
-                if math.hypot(a, b) < FB_DEGENERATE:
-                    isfb[i] = 2
+            if isfb[i] == 1 and math.hypot(z[i], fbb[i]) < FB_DEGENERATE:
+                isfb[i] = 2
     for i in range(n):
         if isfb[i] == 0:
             theta += F[i] * F[i]
             continue
         a = z[i]
         b = fbb[i]
-        F[i] = fb(a, b)
-        theta += F[i] * F[i]
-        if not want_J:
-            continue
-        if isfb[i] == 1:
-            rho = math.hypot(a, b)
-            ca = 1.0 - a / rho
-            cb = 1.0 - b / rho
+        ca = 0.0
+        cb = 0.0
+        if mu_s > 0.0:
+            val, rho = fb_smooth(a, b, mu_s)
+            if want_J:
+                ca = 1.0 - a / rho
+                cb = 1.0 - b / rho
         else:
-            # DFK: z_j = 1 on degenerate variables; c = grad a . z = 1, d = grad b . z
-            d = 0.0
+            val = fb(a, b)
+            if want_J and isfb[i] == 1:
+                rho = math.hypot(a, b)
+                ca = 1.0 - a / rho
+                cb = 1.0 - b / rho
+            elif want_J:
+                # DFK: z_j = 1 on degenerate variables; c = grad a . z = 1, d = grad b . z
+                d = 0.0
+                for j in range(n):
+                    if isfb[j] == 2:
+                        d += J[i, j]
+                rho = math.hypot(1.0, d)
+                ca = 1.0 - 1.0 / rho
+                cb = 1.0 - d / rho
+        F[i] = val
+        theta += val * val
+        if want_J:
             for j in range(n):
-                if isfb[j] == 2:
-                    d += J[i, j]
-            rho = math.hypot(1.0, d)
-            ca = 1.0 - 1.0 / rho
-            cb = 1.0 - d / rho
-        for j in range(n):
-            J[i, j] *= cb
-        J[i, i] += ca
+                J[i, j] *= cb
+            J[i, i] += ca
     return 0.5 * theta
