@@ -1,6 +1,7 @@
 """``tumblemc bench``: per-step cost of the time-stepper (a benchmark, never a test).
 
-Prints, for the cuboid on the 45 deg paper incline and on flat paper at 1 and 10 Hz:
+Prints, for every shape (``--shapes`` to choose) on the 45 deg paper incline and on flat
+paper at 1 and 10 Hz:
 median wall time per step over several runs (after compilation), Newton iterations per
 step, wall time per simulated second at the default dt, and the compile time of the
 kernels in a fresh process with an empty (cold) and with a warm (cached) Numba cache.
@@ -17,6 +18,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 
+from .shapes import SHAPES
 from .simulate import DEFAULT_DT, prepare, run_spec
 
 SCENARIOS = (
@@ -61,14 +63,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--duration-s", type=float, default=2.0, help="simulated seconds per run (default 2)")
     ap.add_argument("--quick", action="store_true", help="0.2 s runs, 3 repeats, no compile timing")
     ap.add_argument("--no-compile", action="store_true", help="skip the cold/cached compile timing")
+    ap.add_argument("--shapes", default=",".join(SHAPES), help=f"comma-separated shapes (default: {','.join(SHAPES)})")
     a = ap.parse_args(argv)
+    shapes = [s.strip() for s in a.shapes.split(",") if s.strip()]
+    for s in shapes:
+        if s not in SHAPES:
+            ap.error(f"--shapes: {s!r} is unknown (allowed: {', '.join(SHAPES)})")
     dur = 0.2 if a.quick else a.duration_s
     reps = 3 if a.quick else a.repeats
     print(f"tumblemc bench: dt = {DEFAULT_DT} s (default), {reps} runs of {dur} s each, median; one core")
-    print(f"{'scenario':22s} {'steps':>7s} {'us/step':>8s} {'Newton/step':>11s} {'ms per sim s':>12s} {'spread %':>8s}")
-    for name, kw in SCENARIOS:
-        r = measure(kw, dur, reps)
-        print(f"{name:22s} {r['steps']:7d} {r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}")
+    print(f"{'shape':12s} {'scenario':22s} {'steps':>7s} {'us/step':>8s} {'Newton/step':>11s} {'ms per sim s':>12s} {'spread %':>8s}")
+    for shape in shapes:
+        for name, kw in SCENARIOS:
+            r = measure(dict(kw, shape=shape), dur, reps)
+            print(f"{shape:12s} {name:22s} {r['steps']:7d} {r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}")
     if not (a.quick or a.no_compile):
         with tempfile.TemporaryDirectory() as d:
             cold = compile_time(d)

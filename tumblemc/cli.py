@@ -1,8 +1,13 @@
-"""Command line: ``tumblemc simulate | validate | bench`` (also ``python -m tumblemc``).
+"""Command line: ``tumblemc simulate | validate | study | shapes | bench`` (also
+``python -m tumblemc``).
 
 Examples::
 
     tumblemc simulate --incline-deg 20 --set mu=0.4 --out run.nc --plot
+    tumblemc study run studies/smoke.toml --workers 2
+    tumblemc study status studies/smoke.toml
+    tumblemc study plot results/smoke.nc
+    tumblemc shapes --out shapes.png
     tumblemc validate --quick --out validation
     tumblemc bench --quick --repeats 3
 
@@ -69,7 +74,9 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
         if name in out:
             raise _UsageError(f"--set {name} given twice (allowed: once per parameter)")
         if name not in Params.field_names():
-            raise _UsageError(f"--set {name}: unknown parameter (allowed: {', '.join(Params.field_names())}; options such as --dt have their own flags)")
+            raise _UsageError(
+                f"--set {name}: unknown parameter (allowed: {', '.join(Params.field_names())}; options such as --dt have their own flags)"
+            )
         out[name] = parse_value(value)
     return out
 
@@ -147,6 +154,41 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--out", default="validation", help="output directory (default: validation)")
     v.add_argument("--quick", action="store_true", help="reduced, faster suite")
 
+    what = "Monte Carlo robustness studies: run, status, plot"
+    st = sub.add_parser("study", help=what, description=what + ".")
+    ss = st.add_subparsers(dest="study_command", metavar="ACTION")
+    ss.required = True
+    r = ss.add_parser("run", help="run a study (or resume it)", description="Run a study TOML; rerunning resumes an interrupted study.")
+    r.add_argument("config", help="study TOML, e.g. studies/smoke.toml")
+    r.add_argument("--out", default=None, help="result netCDF (default: results/<study name>.nc)")
+    r.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="worker processes of the embedded local cluster (default: all cores; 0: run in this process without dask)",
+    )
+    r.add_argument(
+        "--scheduler", default=None, help="address of an existing dask scheduler, e.g. tcp://host:8786 (instead of the local cluster)"
+    )
+    r.add_argument("--batch-size", type=int, default=None, help="runs per task (default: the config's [execution].batch_size)")
+    r.add_argument(
+        "--fresh", action="store_true", help="discard earlier results of this output instead of resuming (needed after a config change)"
+    )
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--plot", action="store_true", help="also write the study plots next to the result")
+    t = ss.add_parser("status", help="how far a study got", description="How far a study got (from its TOML or its result file).")
+    t.add_argument("study", help="study TOML or result netCDF")
+    t.add_argument("--out", default=None, help="result netCDF of a TOML given (default: results/<study name>.nc)")
+    pl = ss.add_parser(
+        "plot", help="plot a study result", description="Success-probability heatmap, curves with CI bands, progress-ratio distributions."
+    )
+    pl.add_argument("result", help="result netCDF")
+    pl.add_argument("--out", default=None, help="output directory (default: next to the result, <name>_plots)")
+
+    what = "draw every shape's profile, hull faces and adhesion areas"
+    sh = sub.add_parser("shapes", help=what, description=what[0].upper() + what[1:] + ".")
+    sh.add_argument("--out", default="shapes.png", help="PNG path (default: shapes.png)")
+
     sub.add_parser(
         "bench",
         help="run the benchmarks (arguments are passed on, e.g. --quick --repeats 3)",
@@ -207,6 +249,67 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return int(run_validation(out_dir=args.out, quick=args.quick))
 
 
+def _cmd_study(args: argparse.Namespace) -> int:
+    from .engine import local_client, run_study, study_status
+
+    if args.study_command == "status":
+        st = study_status(args.study, args.out)
+        print(format_table(st))
+        return EXIT_OK
+    if args.study_command == "plot":
+        from .io import open_result
+        from .plotting_study import plot_study
+
+        res = Path(args.result)
+        runs, maps = open_result(res)
+        out_dir = Path(args.out) if args.out else res.with_name(res.stem + "_plots")
+        for path in plot_study(runs, maps, out_dir):
+            print(f"wrote {path}")
+        return EXIT_OK
+    if args.workers is not None and args.workers < 0:
+        raise _UsageError(f"--workers {args.workers} is not allowed (allowed: 0 for in-process, or >= 1)")
+    if args.batch_size is not None and args.batch_size < 1:
+        raise _UsageError(f"--batch-size {args.batch_size} is not allowed (allowed: >= 1)")
+    client = None
+    try:
+        if args.scheduler:
+            from distributed import Client
+
+            client = Client(args.scheduler)
+        elif args.workers != 0:
+            client = local_client(args.workers)
+        try:
+            res = run_study(args.config, client, out=args.out, fresh=args.fresh, progress=not args.no_progress, batch_size=args.batch_size)
+        except KeyboardInterrupt:
+            print("\ninterrupted: finished runs are kept; run the same command again to resume", file=sys.stderr)
+            return 130
+    finally:
+        if client is not None:
+            cluster = getattr(client, "cluster", None) if not args.scheduler else None
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    print(f"wrote {res.path}")
+    st = study_status(res.path)
+    print(format_table(st))
+    if args.plot:
+        from .plotting_study import plot_study
+
+        for path in plot_study(res.runs, res.maps, res.path.with_name(res.path.stem + "_plots")):
+            print(f"wrote {path}")
+    return EXIT_OK
+
+
+def _cmd_shapes(args: argparse.Namespace) -> int:
+    from .plotting import plot_shapes
+
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    plot_shapes(path=out)
+    print(f"wrote {out}")
+    return EXIT_OK
+
+
 def _cmd_bench(rest: list[str]) -> int:
     from .bench import main as bench_main
 
@@ -231,6 +334,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_validate(args)
         if args.command == "bench":
             return _cmd_bench(rest)
+        if args.command == "study":
+            return _cmd_study(args)
+        if args.command == "shapes":
+            return _cmd_shapes(args)
     except (ValueError, _UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE

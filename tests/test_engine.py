@@ -1,0 +1,255 @@
+"""The Monte Carlo engine: batch kernel against simulate, determinism across schedulers and
+batch sizes, crash-safe resume, refusal of a changed config, the file's metadata."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import tumblemc
+from tumblemc.batch import TimeGrid, simulate_rows
+from tumblemc.engine import TIMESTAMP_ATTRS, run_study, study_status
+from tumblemc.io import StudyStateError, open_result, parts_dir
+from tumblemc.sampling import load_config
+
+ROOT = Path(__file__).resolve().parents[1]
+SMOKE = ROOT / "studies" / "smoke.toml"
+
+
+def tiny(**changes: Any) -> dict[str, Any]:
+    """The smoke study made small: 10 Hz (0.2 s runs), 2 inclines, 3 samples per cell."""
+    d = tomllib.loads(SMOKE.read_text())
+    d.update({"name": "tiny", "incline_deg": [0, 60], "freq_hz": 10, "samples": 3})
+    d["check"] = {"fraction": 0.02, "min_runs": 2, "dt_factor": 2}
+    d.update(changes)
+    return d
+
+
+def strip_time(ds: xr.Dataset) -> xr.Dataset:
+    out = ds.copy()
+    for k in TIMESTAMP_ATTRS:
+        out.attrs.pop(k, None)
+    return out
+
+
+def assert_same_result(a: Path, b: Path) -> None:
+    ra, ma = open_result(a)
+    rb, mb = open_result(b)
+    xr.testing.assert_identical(strip_time(ra), strip_time(rb))
+    xr.testing.assert_identical(strip_time(ma), strip_time(mb))
+
+
+def test_batch_rows_equal_simulate_and_summarize() -> None:
+    rows = [
+        {"preset": "aluminum", "incline_deg": 0.0, "field_mT": 20.0, "freq_hz": 10.0, "mu": 0.5},
+        {"preset": "paper", "incline_deg": 30.0, "field_mT": 18.0, "freq_hz": 10.0, "offset_deg": 20.0},
+        {"preset": "paper", "incline_deg": 10.0, "field_mT": 20.0, "freq_hz": 5.0},
+    ]
+    grid = TimeGrid(periods=2.0, transient_periods=1.0)
+    res = simulate_rows("cuboid", rows, grid)
+    for i, row in enumerate(rows):
+        s = tumblemc.summarize(tumblemc.simulate(duration_s=2.0 / row["freq_hz"], **row))
+        assert res["status"][i] == s["status"] == 0
+        # same kernel and trajectory; the window's progress is summed in another order
+        assert res["progress_ratio"][i] == pytest.approx(s["progress_ratio"], rel=1e-12, abs=1e-12)
+        assert res["mean_speed"][i] == pytest.approx(s["mean_speed"], rel=1e-12, abs=1e-15)
+        assert bool(res["climbed"][i]) == s["climbed"]
+        assert res["substeps"][i] == s["substeps"]
+        assert res["failed_steps"][i] == s["failed_steps"]
+        assert res["max_penetration"][i] == s["max_penetration"]
+        assert res["newton_iterations"][i] == pytest.approx(s["mean_newton_iterations"], rel=1e-12)
+
+
+def test_bad_row_is_recorded_not_raised() -> None:
+    res = simulate_rows("cuboid", [{"preset": "paper", "mu": -1.0, "freq_hz": 10.0}, {"preset": "paper", "freq_hz": 10.0}], TimeGrid())
+    assert res["status"].tolist() == [3, 0]
+    assert "mu" in res["error"][0] and res["error"][1] == ""
+    assert np.isnan(res["progress_ratio"][0]) and res["climbed"][0] == 0
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("ref") / "tiny.nc"
+    run_study(tiny(), out=out, progress=False)
+    return out
+
+
+def test_file_schema(reference: Path) -> None:
+    runs, maps = open_result(reference)
+    assert runs.sizes["run"] == 6 and runs.sizes["check"] == 2
+    for ds in (runs, maps):
+        for name, var in ds.variables.items():
+            assert "long_name" in var.attrs, name
+            if var.dtype.kind in "fiu" and name not in ("quantile",):
+                assert "units" in var.attrs, name
+        for key in ("Conventions", "history", "source", "date_created", "tumblemc_version", "git_sha", "config_json", "config_hash", "seed"):
+            assert key in ds.attrs, key
+    assert runs["status"].attrs["flag_meanings"] == "ok failed_steps nonfinite error"
+    assert maps["p_success"].attrs["ancillary_variables"].startswith("p_success_lower")
+    # the whole file opens as a tree too
+    tree = xr.open_datatree(reference, engine="netcdf4")
+    assert set(tree.children) == {"runs", "maps"}
+    tree.close()
+    # intervals at 0/N and N/N are never of zero width
+    lo, hi, p = (maps[k].values.ravel() for k in ("p_success_lower", "p_success_upper", "p_success"))
+    ok = np.isfinite(p)
+    assert np.all(hi[ok] > lo[ok])
+    st = study_status(reference)
+    assert st["state"] == "complete" and st["done"] == 6 and "check_agreement_rate" in st
+
+
+@pytest.mark.parametrize("batch_size", [1, 4])
+def test_batch_size_changes_nothing(reference: Path, tmp_path: Path, batch_size: int) -> None:
+    out = tmp_path / "tiny.nc"
+    run_study(tiny(), out=out, progress=False, batch_size=batch_size)
+    assert_same_result(reference, out)
+
+
+def test_config_change_refused_then_fresh(reference: Path, tmp_path: Path) -> None:
+    out = tmp_path / "tiny.nc"
+    out.write_bytes(reference.read_bytes())
+    again = run_study(tiny(), out=out, progress=False)  # complete: nothing to do
+    assert again.runs.sizes["run"] == 6
+    with pytest.raises(StudyStateError, match="different config"):
+        run_study(tiny(seed=1), out=out, progress=False)
+    # a partial study of another config is refused as well
+    part = tmp_path / "part.nc"
+    parts_dir(part).mkdir()
+    from tumblemc.io import ShardStore
+    from tumblemc.sampling import config_hash, config_to_json
+
+    c = load_config(tiny())
+    ShardStore(part, config_to_json(c), config_hash(c)).open()
+    with pytest.raises(StudyStateError, match="fresh"):
+        run_study(tiny(samples=4), out=part, progress=False)
+    res = run_study(tiny(samples=4), out=part, progress=False, fresh=True)
+    assert res.runs.sizes["run"] == 8
+
+
+def _cli(args: list[str], **kw: Any) -> subprocess.Popen[str]:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.Popen([sys.executable, "-m", "tumblemc", *args], env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
+
+
+@pytest.mark.slow
+def test_sigkill_then_resume_gives_the_same_file(tmp_path: Path) -> None:
+    cfg = tiny(freq_hz=1, samples=4, incline_deg=[0, 30])  # 8 runs of 2 s: long enough to kill
+    toml = tmp_path / "kill.toml"
+    toml.write_text(_to_toml(cfg))
+    ref = tmp_path / "ref.nc"
+    run_study(cfg, out=ref, progress=False)
+    out = tmp_path / "killed.nc"
+    proc = _cli(["study", "run", str(toml), "--workers", "0", "--batch-size", "1", "--out", str(out), "--no-progress"])
+    parts = parts_dir(out)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list(parts.glob("main-*.npz"))) < 2:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate()
+    n_done = len(list(parts.glob("main-*.npz")))
+    assert 2 <= n_done < 8, "the study was not interrupted mid-run"
+    assert not out.exists()
+    st = study_status(toml, out)
+    assert st["state"] == "partial" and st["done"] >= 2
+    proc = _cli(["study", "run", str(toml), "--workers", "0", "--out", str(out)])
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert f"{st['done']} of 8 runs already done" in err
+    assert_same_result(ref, out)
+    assert not parts.exists()
+
+
+def test_cli_bad_config_is_one_clear_error(tmp_path: Path) -> None:
+    toml = tmp_path / "bad.toml"
+    toml.write_text(_to_toml(tiny(samplez=3)))
+    proc = _cli(["study", "run", str(toml), "--workers", "0", "--out", str(tmp_path / "x.nc")])
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2
+    assert "samplez" in err and "samples" in err and "Traceback" not in err
+
+
+def _to_toml(d: dict[str, Any]) -> str:
+    """A minimal TOML writer for the flat configs of these tests."""
+
+    def val(v: Any) -> str:
+        if isinstance(v, str):
+            return f'"{v}"'
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        return repr(v)
+
+    lines = [f"{k} = {val(v)}" for k, v in d.items() if not isinstance(v, dict)]
+    for k, v in d.items():
+        if isinstance(v, dict):
+            if all(isinstance(x, dict) for x in v.values()) and v:
+                for sub, tab in v.items():
+                    lines.append(f"[{k}.{sub}]")
+                    lines += [f"{a} = {val(b)}" for a, b in tab.items()]
+            else:
+                lines.append(f"[{k}]")
+                lines += [f"{a} = {val(b)}" for a, b in v.items()]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.slow
+def test_local_cluster_1_and_2_workers_identical_to_serial(reference: Path, tmp_path: Path) -> None:
+    from tumblemc.engine import local_client
+
+    for workers in (1, 2):
+        client = local_client(workers)
+        try:
+            out = tmp_path / f"w{workers}.nc"
+            run_study(tiny(), client, out=out, progress=False, batch_size=2)
+        finally:
+            cluster = client.cluster
+            client.close()
+            cluster.close()
+        assert_same_result(reference, out)
+
+
+@pytest.mark.slow
+def test_worker_killed_mid_study_loses_and_duplicates_nothing(tmp_path: Path) -> None:
+    from tumblemc.engine import local_client
+
+    cfg = tiny(freq_hz=1, samples=6, incline_deg=[0, 30])  # 12 runs of 2 s
+    ref = tmp_path / "ref.nc"
+    run_study(cfg, out=ref, progress=False)
+    client = local_client(2)
+    try:
+        pids = client.run(os.getpid)
+        out = tmp_path / "killed.nc"
+        import threading
+
+        shards_at_kill: list[int] = []
+
+        def killer() -> None:
+            parts = parts_dir(out)
+            deadline = time.time() + 120
+            while time.time() < deadline and not list(parts.glob("main-*.npz")):
+                time.sleep(0.05)
+            shards_at_kill.append(len(list(parts.glob("main-*.npz"))))
+            os.kill(next(iter(pids.values())), signal.SIGKILL)
+
+        th = threading.Thread(target=killer)
+        th.start()
+        res = run_study(cfg, client, out=out, progress=False, batch_size=1)
+        th.join()
+    finally:
+        cluster = client.cluster
+        client.close()
+        cluster.close()
+    assert res.runs.sizes["run"] == 12
+    assert shards_at_kill and shards_at_kill[0] < 12, "the worker was not killed mid-study"
+    assert_same_result(ref, out)

@@ -1,0 +1,352 @@
+"""Analysis of a robustness study: success maps with confidence intervals.
+
+A study's ``runs`` Dataset has one row per simulated robot along the dimension ``run``:
+the cell coordinates (``shape``, ``substrate``, ``incline_deg``, ``field_mT``,
+``freq_hz``, ``sample``), the sampled parameters listed in ``runs.attrs["uncertain"]``,
+and the outcomes (``progress_ratio``, ``mean_speed``, ``climbed``, ``status``, ...).
+
+A run is *valid* when ``status == 0`` (finished, every step converged); a run is a
+*success* when it is valid and ``climbed == 1``. :func:`maps` reduces the runs to one
+value per cell, :func:`proportion_ci` gives the binomial confidence intervals, and
+:func:`check_summary` summarises the numerical check subset (runs repeated with a finer
+time step).
+
+Every reduction sorts before it sums, so the maps are bit-identical for the same runs in
+any order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from numpy.typing import ArrayLike
+from scipy.special import ndtri
+from scipy.stats import beta
+
+CI_METHODS = ("wilson", "clopper-pearson")
+CELL_DIMS = ("shape", "incline_deg", "substrate")
+SWEEP_DIMS = ("field_mT", "freq_hz")  # dims of the maps only when the study sweeps them
+REQUIRED = ("shape", "substrate", "incline_deg", "status", "climbed", "progress_ratio", "mean_speed")
+
+COORD_ATTRS: dict[str, dict[str, str]] = {
+    "shape": {"long_name": "robot shape"},
+    "substrate": {"long_name": "substrate preset"},
+    "incline_deg": {"units": "degree", "long_name": "incline angle of the plane"},
+    "field_mT": {"units": "mT", "long_name": "magnitude of the rotating magnetic field"},
+    "freq_hz": {"units": "Hz", "long_name": "rotation frequency of the magnetic field"},
+    "quantile": {"units": "1", "long_name": "quantile level"},
+}
+
+MAP_VARIABLES: dict[str, dict[str, str]] = {
+    "p_success": {
+        "units": "1",
+        "long_name": "fraction of valid runs that climbed (n_success / n_valid)",
+        "ancillary_variables": "p_success_lower p_success_upper n_valid",
+    },
+    "p_success_lower": {"units": "1", "long_name": "lower bound of the confidence interval of p_success"},
+    "p_success_upper": {"units": "1", "long_name": "upper bound of the confidence interval of p_success"},
+    "n_success": {"units": "1", "long_name": "number of valid runs that climbed"},
+    "n_valid": {"units": "1", "long_name": "number of valid runs (status ok)"},
+    "n_failed": {"units": "1", "long_name": "number of runs that are not valid (status not ok)"},
+    "n_runs": {"units": "1", "long_name": "number of runs"},
+    "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs"},
+    "progress_ratio_quantile": {"units": "1", "long_name": "quantiles of the progress ratio over valid runs"},
+    "mean_speed_mean": {"units": "m s-1", "long_name": "mean uphill speed over valid runs"},
+}
+
+
+def _check_ci_args(level: float, method: str) -> None:
+    if not (isinstance(level, (int, float, np.floating)) and 0.0 < float(level) < 1.0):
+        raise ValueError(f"level must be in (0, 1), got {level!r}")
+    if method not in CI_METHODS:
+        raise ValueError(f"method must be one of {CI_METHODS}, got {method!r}")
+
+
+def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str = "wilson") -> tuple[Any, Any]:
+    """Two-sided confidence interval of a binomial proportion, vectorised.
+
+    Parameters
+    ----------
+    k : int array_like
+        Number of successes, ``0 <= k <= n``.
+    n : int array_like
+        Number of trials, ``n >= 0``; broadcast against ``k``.
+    level : float
+        Confidence level in (0, 1).
+    method : {"wilson", "clopper-pearson"}
+        ``"wilson"``: Wilson score interval without continuity correction;
+        ``"clopper-pearson"``: the exact interval (``method="exact"`` of scipy).
+
+    Returns
+    -------
+    (lo, hi) : float64 arrays of the broadcast shape (NumPy floats for scalar input).
+        ``lo = 0`` at ``k = 0`` and ``hi = 1`` at ``k = n``; NaN where ``n = 0``.
+
+    Notes
+    -----
+    Same values as ``scipy.stats.binomtest(k, n).proportion_ci(level, method)`` with
+    ``method="wilson"`` or ``"exact"`` (Newcombe 1998, methods 3 and 5), but for arrays
+    and without root finding: Clopper-Pearson bounds are beta quantiles,
+    ``lo = B^-1(a/2; k, n-k+1)`` and ``hi = B^-1(1-a/2; k+1, n-k)`` with ``a = 1 - level``.
+    """
+    _check_ci_args(level, method)
+    k_arr, n_arr = np.broadcast_arrays(np.asarray(k), np.asarray(n))
+    kf = k_arr.astype(np.float64)
+    nf = n_arr.astype(np.float64)
+    if not (np.all(np.isfinite(kf)) and np.all(np.isfinite(nf))):
+        raise ValueError("k and n must be finite")
+    if np.any(kf != np.round(kf)) or np.any(nf != np.round(nf)):
+        raise ValueError("k and n must be whole numbers")
+    if np.any(nf < 0) or np.any(kf < 0) or np.any(kf > nf):
+        raise ValueError("proportion_ci needs 0 <= k <= n")
+    empty = nf == 0
+    ns = np.where(empty, 1.0, nf)  # placeholder trials where n = 0, masked below
+    ks = np.where(empty, 0.0, kf)
+    if method == "wilson":
+        z = float(ndtri(0.5 + 0.5 * float(level)))
+        p = ks / ns
+        denom = 2.0 * (ns + z * z)
+        center = (2.0 * ns * p + z * z) / denom
+        delta = z / denom * np.sqrt(4.0 * ns * p * (1.0 - p) + z * z)
+        lo = center - delta
+        hi = center + delta
+    else:
+        a = 0.5 * (1.0 - float(level))
+        # beta needs positive shape parameters: placeholders where the bound is fixed
+        lo = beta.ppf(a, np.where(ks > 0, ks, 1.0), ns - ks + 1.0)
+        hi = beta.ppf(1.0 - a, ks + 1.0, np.where(ks < ns, ns - ks, 1.0))
+    lo = np.where(ks == 0, 0.0, np.clip(lo, 0.0, 1.0))
+    hi = np.where(ks == ns, 1.0, np.clip(hi, 0.0, 1.0))
+    lo = np.where(empty, np.nan, lo).astype(np.float64)
+    hi = np.where(empty, np.nan, hi).astype(np.float64)
+    return lo[()], hi[()]
+
+
+def _check_runs(runs: xr.Dataset) -> None:
+    missing = [v for v in REQUIRED if v not in runs.variables]
+    if missing:
+        raise ValueError(f"runs lacks variable(s) {missing}; a runs Dataset needs {list(REQUIRED)}")
+    for name in REQUIRED:
+        if runs[name].dims != ("run",):
+            raise ValueError(f"runs[{name!r}] must be 1-D over 'run', got dims {runs[name].dims}")
+    for name in ("incline_deg", *SWEEP_DIMS):
+        if name in runs.variables and not np.all(np.isfinite(runs[name].values.astype(np.float64))):
+            raise ValueError(f"runs[{name!r}] has non-finite values; cell coordinates must be finite")
+
+
+def sort_runs(runs: xr.Dataset) -> xr.Dataset:
+    """``runs`` in canonical order: by cell, then ``sample``, then the outcomes.
+
+    The order does not depend on the input order, so reductions over the result are
+    reproducible to the bit. Variables along other dims (the check subset) are left as
+    they are, so ``check_run`` no longer indexes the sorted runs.
+    """
+    keys: list[np.ndarray] = []
+    for name in (*CELL_DIMS, *SWEEP_DIMS, "sample", "status", "climbed", "progress_ratio", "mean_speed"):
+        if name in runs.variables:
+            # integer codes: lexsort of mixed str/float keys; NaN gets the last code
+            keys.append(np.unique(np.asarray(runs[name].values), return_inverse=True)[1].ravel())
+    order = np.lexsort(tuple(reversed(keys)))  # the last key of lexsort is the primary one
+    return runs.isel(run=order)
+
+
+def _cell_dims(runs: xr.Dataset) -> tuple[list[str], dict[str, np.ndarray]]:
+    """Dims of the maps and the sorted unique values of every cell coordinate."""
+    values = {name: np.unique(runs[name].values) for name in (*CELL_DIMS, *SWEEP_DIMS) if name in runs.variables}
+    dims = list(CELL_DIMS) + [d for d in SWEEP_DIMS if d in values and values[d].size > 1]
+    return dims, values
+
+
+def _sorted_mean(x: np.ndarray) -> float:
+    return float(np.sum(np.sort(x)) / x.size) if x.size else np.nan
+
+
+def maps(
+    runs: xr.Dataset,
+    *,
+    level: float = 0.95,
+    method: str = "wilson",
+    quantiles: Sequence[float] = (0.05, 0.25, 0.5, 0.75, 0.95),
+) -> xr.Dataset:
+    """Success maps of a study: one value per cell ``shape x incline_deg x substrate``.
+
+    Parameters
+    ----------
+    runs : Dataset
+        Study results, variables 1-D over ``run`` (see the module docstring).
+    level : float
+        Confidence level of the interval of ``p_success``.
+    method : {"wilson", "clopper-pearson"}
+        Interval method, see :func:`proportion_ci`.
+    quantiles : sequence of float
+        Quantile levels in [0, 1] of ``progress_ratio_quantile`` (sorted in the output).
+
+    Returns
+    -------
+    Dataset
+        Dims ``shape``, ``incline_deg``, ``substrate`` (sorted), then ``field_mT`` and
+        ``freq_hz`` when the study has more than one value of them (otherwise they are
+        scalar coordinates), and ``quantile`` for ``progress_ratio_quantile``. Variables:
+        ``p_success`` with ``p_success_lower``/``p_success_upper``; counts ``n_success``,
+        ``n_valid``, ``n_failed``, ``n_runs`` (int64); ``progress_ratio_mean``,
+        ``progress_ratio_quantile`` and ``mean_speed_mean`` (m/s) over valid runs.
+        Cells without valid runs hold NaN (and cells without runs count 0).
+
+    Notes
+    -----
+    ``p_success`` is conditional on a valid run: runs that did not finish cleanly are
+    counted in ``n_failed`` and left out of numerator and denominator. Means sum sorted
+    values, so the output is bit-identical for any order of the runs.
+    """
+    _check_runs(runs)
+    q = np.asarray(quantiles, dtype=np.float64).ravel()
+    if q.size == 0 or not np.all((q >= 0.0) & (q <= 1.0)):
+        raise ValueError(f"quantiles must be a non-empty sequence of levels in [0, 1], got {quantiles!r}")
+    if np.unique(q).size != q.size:
+        raise ValueError(f"quantiles must be distinct, got {quantiles!r}")
+    q = np.sort(q)
+    _check_ci_args(level, method)
+
+    runs = sort_runs(runs)
+    dims, values = _cell_dims(runs)
+    shape = tuple(values[d].size for d in dims)
+    # flat cell index of every run
+    idx = np.zeros(runs.sizes["run"], dtype=np.int64)
+    for d, size in zip(dims, shape, strict=True):
+        idx = idx * size + np.searchsorted(values[d], runs[d].values)
+    ncell = int(np.prod(shape))
+
+    status = runs["status"].values
+    valid = status == 0
+    success = valid & (runs["climbed"].values == 1)
+    n_runs = np.bincount(idx, minlength=ncell)
+    n_valid = np.bincount(idx, weights=valid, minlength=ncell).astype(np.int64)
+    n_success = np.bincount(idx, weights=success, minlength=ncell).astype(np.int64)
+
+    ratio = runs["progress_ratio"].values.astype(np.float64)
+    speed = runs["mean_speed"].values.astype(np.float64)
+    ratio_mean = np.full(ncell, np.nan)
+    speed_mean = np.full(ncell, np.nan)
+    ratio_q = np.full((ncell, q.size), np.nan)
+    order = np.argsort(idx, kind="stable")
+    bounds = np.searchsorted(idx[order], np.arange(ncell + 1))
+    for c in range(ncell):
+        rows = order[bounds[c] : bounds[c + 1]]
+        rows = rows[valid[rows]]
+        r = ratio[rows]
+        r = r[np.isfinite(r)]
+        s = speed[rows]
+        s = s[np.isfinite(s)]
+        ratio_mean[c] = _sorted_mean(r)
+        speed_mean[c] = _sorted_mean(s)
+        if r.size:
+            ratio_q[c] = np.quantile(r, q)
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = np.where(n_valid > 0, n_success / np.maximum(n_valid, 1), np.nan)
+    lo, hi = proportion_ci(n_success, n_valid, level, method)
+
+    def grid(a: np.ndarray) -> np.ndarray:
+        return np.asarray(a).reshape(shape + a.shape[1:])
+
+    ci_attrs = {"ci_method": method, "confidence_level": float(level)}
+    pct = f"{100 * float(level):g}%"
+    data = {
+        "p_success": (dims, grid(p)),
+        "p_success_lower": (dims, grid(np.asarray(lo, dtype=np.float64))),
+        "p_success_upper": (dims, grid(np.asarray(hi, dtype=np.float64))),
+        "n_success": (dims, grid(n_success)),
+        "n_valid": (dims, grid(n_valid)),
+        "n_failed": (dims, grid((n_runs - n_valid).astype(np.int64))),
+        "n_runs": (dims, grid(n_runs.astype(np.int64))),
+        "progress_ratio_mean": (dims, grid(ratio_mean)),
+        "progress_ratio_quantile": ([*dims, "quantile"], grid(ratio_q)),
+        "mean_speed_mean": (dims, grid(speed_mean)),
+    }
+    coords: dict[str, Any] = {d: (d, values[d]) for d in dims}
+    for d in SWEEP_DIMS:
+        if d in values and d not in dims and values[d].size == 1:
+            coords[d] = ((), values[d][0])
+    coords["quantile"] = ("quantile", q)
+    out = xr.Dataset(data, coords=coords)
+    for name, attrs in MAP_VARIABLES.items():
+        out[name].attrs.update(attrs)
+    for name in ("p_success_lower", "p_success_upper"):
+        out[name].attrs.update(ci_attrs)
+        out[name].attrs["long_name"] = out[name].attrs["long_name"].replace("confidence interval", f"{pct} {method} confidence interval")
+    out["p_success"].attrs.update(ci_attrs)
+    out["progress_ratio_quantile"].attrs["quantile_method"] = "linear"
+    for name, attrs in COORD_ATTRS.items():
+        if name in out.coords:
+            out[name].attrs.update(attrs)
+    out.attrs.update({k: v for k, v in sorted(runs.attrs.items())})
+    out.attrs.update(
+        {
+            "title": f"success maps: {runs.attrs.get('title', 'tumblemc robustness study')}",
+            "success_definition": "valid run (status 0) with climbed == 1; p_success = n_success / n_valid",
+            "ci_method": method,
+            "confidence_level": float(level),
+        }
+    )
+    return out
+
+
+def check_summary(runs: xr.Dataset) -> dict[str, Any]:
+    """Summary of the numerical check subset (runs repeated with a finer time step).
+
+    Parameters
+    ----------
+    runs : Dataset
+        Study results; the subset lives in ``check_run`` (indices into ``run``, dim
+        ``check``), ``check_progress_ratio_fine``, ``check_climbed_fine`` and optionally
+        ``check_agree``, with ``attrs["check_dt_factor"]``.
+
+    Returns
+    -------
+    dict
+        ``n_checked`` (int, 0 without a subset), ``agreement_rate`` (fraction of checked
+        runs whose climbed verdict is the same at the fine step), ``n_compared`` (checked
+        runs with a finite ratio at both steps), ``median_abs_delta_ratio`` and
+        ``max_abs_delta_ratio`` (|fine - nominal| progress ratio), ``n_fine_not_ok`` (fine
+        re-runs with status != 0, from ``check_status_fine``), ``dt_factor`` (the fine
+        step is ``dt / dt_factor``). Values that cannot be computed are None.
+    """
+    out: dict[str, Any] = {
+        "n_checked": 0,
+        "agreement_rate": None,
+        "n_compared": 0,
+        "median_abs_delta_ratio": None,
+        "max_abs_delta_ratio": None,
+        "n_fine_not_ok": None,
+        "dt_factor": None,
+    }
+    if "check_run" not in runs.variables:
+        return out
+    sel = np.asarray(runs["check_run"].values, dtype=np.int64)
+    n = int(sel.size)
+    out["n_checked"] = n
+    if "check_dt_factor" in runs.attrs:
+        out["dt_factor"] = float(runs.attrs["check_dt_factor"])
+    if n == 0:
+        return out
+    if "check_agree" in runs.variables:
+        agree = np.asarray(runs["check_agree"].values).astype(bool)
+    elif "check_climbed_fine" in runs.variables:
+        agree = np.asarray(runs["climbed"].values)[sel] == np.asarray(runs["check_climbed_fine"].values)
+    else:
+        agree = None
+    if agree is not None:
+        out["agreement_rate"] = float(np.count_nonzero(agree) / n)
+    if "check_status_fine" in runs.variables:
+        out["n_fine_not_ok"] = int(np.count_nonzero(np.asarray(runs["check_status_fine"].values) != 0))
+    if "check_progress_ratio_fine" in runs.variables:
+        delta = np.abs(np.asarray(runs["check_progress_ratio_fine"].values, dtype=np.float64) - runs["progress_ratio"].values[sel])
+        delta = delta[np.isfinite(delta)]
+        out["n_compared"] = int(delta.size)
+        if delta.size:
+            out["median_abs_delta_ratio"] = float(np.median(delta))
+            out["max_abs_delta_ratio"] = float(np.max(delta))
+    return out

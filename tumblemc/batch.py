@@ -1,0 +1,149 @@
+"""Many runs through the batch kernel: rows of parameters in, rows of outcomes out.
+
+:func:`simulate_rows` is the engine's unit of work (one dask task) and the bare kernel the
+engine benchmark compares against. Each run is validated and scaled by the same
+:func:`tumblemc.simulate.prepare` as :func:`tumblemc.simulate`, so a row's outcome equals
+``summarize(simulate(...))`` of the same inputs; a row whose inputs are invalid gets
+``status = 3`` (error) and the message, it never raises.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .kernels import batch as KB
+from .kernels.newton import make_workspace
+from .kernels.residual import n_unknowns
+from .shapes import Shape, get_shape
+from .simulate import RunSpec, prepare
+
+#: outcome columns of :func:`simulate_rows`, with their dtypes
+OUTCOMES: dict[str, type] = {
+    "progress_ratio": np.float64,
+    "mean_speed": np.float64,
+    "progress": np.float64,
+    "climbed": np.int8,
+    "status": np.int8,
+    "newton_iterations": np.float64,
+    "substeps": np.int64,
+    "fallbacks": np.int64,
+    "failed_steps": np.int64,
+    "max_penetration": np.float64,
+}
+
+STATUS_FLAGS = {
+    "flag_values": [KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR],
+    "flag_meanings": "ok failed_steps nonfinite error",
+}
+
+
+@dataclass(frozen=True)
+class TimeGrid:
+    """The time grid every run of a batch shares.
+
+    periods : duration in field periods; transient_periods : periods skipped before the
+    speed is measured (as :func:`tumblemc.summarize`); dt : s (None: the default);
+    torque : ``"start"`` or ``"end"``; success_ratio : progress-ratio threshold of
+    ``climbed``.
+    """
+
+    periods: float = 2.0
+    transient_periods: float = 1.0
+    dt: float | None = None
+    torque: str = "start"
+    success_ratio: float = 0.5
+
+
+def _record_stride(n_steps: int, i0: int) -> tuple[int, int]:
+    """A recording stride that puts a row at step ``i0`` (and the last step), and that row."""
+    k = math.gcd(n_steps, i0) if i0 > 0 else n_steps
+    return k, (i0 // k if i0 > 0 else 0)
+
+
+def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: TimeGrid) -> dict[str, np.ndarray]:
+    """Simulate one run per row of ``rows`` through the batch kernel.
+
+    Parameters
+    ----------
+    shape : str or Shape
+        Shared by every row.
+    rows : sequence of mappings
+        Keyword arguments of :func:`tumblemc.simulate` per run: ``preset``,
+        ``incline_deg``, ``field_mT``, ``freq_hz`` and any parameter overrides. Rows that
+        share ``freq_hz`` share the time grid; rows are grouped by it internally.
+    grid : TimeGrid
+
+    Returns
+    -------
+    dict of numpy arrays
+        One entry per :data:`OUTCOMES` column (length ``len(rows)``) plus ``error``
+        (object array of messages, ``""`` where the run was valid).
+    """
+    shp = get_shape(shape)
+    nrow = len(rows)
+    res: dict[str, np.ndarray] = {k: np.zeros(nrow, dt) for k, dt in OUTCOMES.items()}
+    for k in ("progress_ratio", "mean_speed", "progress", "newton_iterations", "max_penetration"):
+        res[k][:] = np.nan
+    res["status"][:] = KB.BATCH_ERROR
+    errors = np.full(nrow, "", dtype=object)
+    specs: dict[int, RunSpec] = {}
+    for i, row in enumerate(rows):
+        kw = dict(row)
+        freq = kw.get("freq_hz", 1.0)
+        try:
+            freq = float(freq)
+            if not freq > 0:
+                raise ValueError(f"freq_hz={freq!r} is out of range (allowed: > 0 for a study)")
+            dur = grid.periods / freq
+            spec = prepare(shp, duration_s=dur, dt=grid.dt, torque=grid.torque, **kw)
+        except (ValueError, TypeError) as exc:
+            errors[i] = str(exc)
+            continue
+        specs[i] = spec
+    # runs on the same time grid go through the kernel together
+    groups: dict[tuple[int, int, int], list[int]] = {}
+    for i, spec in specs.items():
+        i0 = round(grid.transient_periods / spec.freq_hz / spec.dt)
+        k, i0_row = _record_stride(spec.n_steps, i0)
+        groups.setdefault((spec.n_steps, k, i0_row), []).append(i)
+    n = n_unknowns(shp.geometry().pstart)
+    ws, ws6 = make_workspace(n), make_workspace(6)
+    geo = shp.geometry()
+    for (n_steps, k, i0_row), idx in sorted(groups.items()):
+        ss = [specs[i] for i in idx]
+        prms = np.ascontiguousarray(np.stack([s.prm for s in ss]))
+        states = np.ascontiguousarray(np.stack([s.state0 for s in ss]))
+        hs = np.array([s.h for s in ss])
+        area0 = np.array([s.shape.rest_face_area(s.params.line_contact_fraction) / s.units.area for s in ss])
+        out = np.zeros((len(ss), KB.N_BATCH_OUT))
+        KB.run_batch(geo, prms, states, hs, area0, True, n_steps, k, i0_row, ss[0].solver.as_array(), ws, ws6, out)
+        for j, (i, s) in enumerate(zip(idx, ss, strict=True)):
+            o = out[j]
+            status = int(o[KB.B_STATUS])
+            window = o[KB.B_WINDOW] * s.units.time
+            progress = o[KB.B_PROGRESS] * s.units.length
+            speed = progress / window if window > 0 else math.nan
+            ideal = s.shape.hull_perimeter * s.freq_hz
+            ratio = speed / ideal
+            if status == KB.BATCH_NONFINITE:
+                speed = ratio = progress = math.nan
+            res["status"][i] = status
+            res["progress"][i] = progress
+            res["mean_speed"][i] = speed
+            res["progress_ratio"][i] = ratio
+            res["climbed"][i] = int(status == KB.BATCH_OK and ratio >= grid.success_ratio)
+            res["newton_iterations"][i] = o[KB.B_NIT] / s.n_steps
+            res["substeps"][i] = int(o[KB.B_SUB])
+            res["fallbacks"][i] = int(o[KB.B_FALLBACK])
+            res["failed_steps"][i] = int(o[KB.B_FAILED])
+            res["max_penetration"][i] = o[KB.B_PEN] * s.units.length
+    res["error"] = errors
+    return res
+
+
+__all__ = ["OUTCOMES", "STATUS_FLAGS", "TimeGrid", "simulate_rows"]

@@ -1,0 +1,458 @@
+"""Many runs: a study's design executed in batches, in-process or on a dask cluster.
+
+:func:`run_study` turns a study config (:mod:`tumblemc.sampling`) into runs, groups them
+into batches (one dask task each, a second or so of work), streams every finished batch
+to a crash-safe shard (:mod:`tumblemc.io`), and assembles the ``runs`` and ``maps`` groups
+of one netCDF file. ``client=None`` runs the batches in this process; a
+``dask.distributed.Client`` runs them on its cluster (local processes or a job queue).
+
+Guarantees
+----------
+- Results depend only on the config: a run's parameters come from the root seed and the
+  run's identity, each run is simulated alone, and outcomes are stored by run index, so
+  worker count, batch size and completion order change nothing (tests check bit-identity).
+- Nothing finished is lost: an interrupted study (Ctrl-C, ``kill -9``, a lost worker)
+  keeps its shards; the same call again runs only the missing runs. A changed config is
+  refused unless ``fresh=True``.
+- A run that fails (invalid sampled parameters, non-converged steps, a non-finite state)
+  is recorded with its ``status``; it never stops the study.
+- Numerical error is measured: a deterministic subset of runs (``[check]``: 2%, at least
+  20) is re-simulated at ``dt / dt_factor`` and the agreement is stored in the file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from .analysis import maps as make_maps
+from .batch import OUTCOMES, STATUS_FLAGS, TimeGrid, simulate_rows
+from .io import ShardStore, StudyStateError, open_result, result_attrs, write_result
+from .sampling import StudyConfig, config_hash, config_to_json, design, load_config, sampled_name
+from .simulate import DEFAULT_DT
+
+OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
+    "progress_ratio": {"units": "1", "long_name": "mean uphill speed after the transient over the no-slip speed (hull perimeter x f)"},
+    "mean_speed": {"units": "m s-1", "long_name": "mean uphill speed after the transient"},
+    "progress": {"units": "m", "long_name": "uphill progress after the transient"},
+    "climbed": {
+        "units": "1",
+        "long_name": "run succeeded: status ok and progress_ratio >= success_ratio",
+        "flag_values": [0, 1],
+        "flag_meanings": "no yes",
+    },
+    "status": {"units": "1", "long_name": "run status", **STATUS_FLAGS},
+    "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step"},
+    "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total"},
+    "fallbacks": {"units": "1", "long_name": "damped or gradient Newton steps and extra solve strategies, total"},
+    "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
+    "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
+    "error": {"long_name": "why the run could not start (empty when it ran)"},
+}
+
+
+class StudyResult(NamedTuple):
+    """What :func:`run_study` returns: the two groups of the file and its path."""
+
+    runs: xr.Dataset
+    maps: xr.Dataset
+    path: Path
+
+
+@dataclass(frozen=True)
+class Task:
+    """One batch: runs of one shape on one time grid (a dask task)."""
+
+    kind: str  # "main" or "check"
+    key: str
+    shape: str
+    run: tuple[int, ...]
+    rows: tuple[dict[str, Any], ...]
+    grid: TimeGrid
+
+
+def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
+    """Run one batch (the function every dask task calls)."""
+    out = simulate_rows(task.shape, task.rows, task.grid)
+    return task.kind, np.asarray(task.run, dtype=np.int64), out
+
+
+# --------------------------------------------------------------------------- planning
+
+
+def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int]) -> list[dict[str, Any]]:
+    """``simulate`` keywords of runs ``idx`` (a sampled ``field_mT`` replaces the cell's)."""
+    names = cfg.uncertain_names
+    cols = {k: des[k].values for k in ("substrate", "incline_deg", "field_mT", "freq_hz")}
+    sampled = {k: des[sampled_name(k)].values for k in names}
+    rows = []
+    for i in idx:
+        row: dict[str, Any] = {
+            "preset": str(cols["substrate"][i]),
+            "incline_deg": float(cols["incline_deg"][i]),
+            "field_mT": float(cols["field_mT"][i]),
+            "freq_hz": float(cols["freq_hz"][i]),
+        }
+        for k in names:
+            row[k] = float(sampled[k][i])
+        rows.append(row)
+    return rows
+
+
+def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
+    dt = cfg.dt if cfg.dt is not None else DEFAULT_DT
+    if fine:
+        dt = dt / cfg.check.dt_factor
+    return TimeGrid(periods=cfg.periods, transient_periods=cfg.transient_periods, dt=dt, torque=cfg.torque, success_ratio=cfg.success_ratio)
+
+
+def check_subset(des: xr.Dataset) -> np.ndarray:
+    """Run indices re-simulated at the finer dt (the design's ``check`` flag: a fraction of
+    the runs, at least ``[check].min_runs``, chosen by a seeded hash of each run's key)."""
+    return np.flatnonzero(des["check_flag"].values).astype(np.int64)
+
+
+def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str) -> list[Task]:
+    """Batches of the runs ``todo``: runs of one cell (one shape and time grid) together."""
+    grid = grid_of(cfg, fine=(kind == "check"))
+    shapes = des["shape"].values
+    cellkey = des["cell_key"].values
+    tasks = []
+    todo = np.sort(np.asarray(todo, dtype=np.int64))
+    start = 0
+    while start < len(todo):
+        # a batch never spans two cells (different shapes or time grids)
+        stop = start + 1
+        while stop < len(todo) and stop - start < batch_size and cellkey[todo[stop]] == cellkey[todo[start]]:
+            stop += 1
+        idx = todo[start:stop]
+        key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
+        tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), tuple(_rows(cfg, des, idx)), grid))
+        start = stop
+    return tasks
+
+
+# --------------------------------------------------------------------------- execution
+
+
+class Progress:
+    """A text progress bar on stderr: runs done, runs/s and ETA (no dependency)."""
+
+    def __init__(self, total: int, done: int = 0, enabled: bool = True, stream: Any = None) -> None:
+        self.total, self.done, self.enabled = total, done, enabled
+        self.start_done = done
+        self.stream = stream or sys.stderr
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def update(self, n: int) -> None:
+        self.done += n
+        now = time.perf_counter()
+        if self.enabled and (now - self.last > (0.2 if self.tty else 10.0) or self.done >= self.total):
+            self.last = now
+            rate = (self.done - self.start_done) / max(now - self.t0, 1e-9)
+            eta = (self.total - self.done) / rate if rate > 0 else math.inf
+            width = 30
+            fill = int(width * self.done / max(self.total, 1))
+            eta_s = "--" if not math.isfinite(eta) else str(_dt.timedelta(seconds=round(eta)))
+            line = f"[{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} runs  {rate:.2f} runs/s  ETA {eta_s}"
+            print(("\r" if self.tty else "") + line, end="" if self.tty else "\n", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.enabled and self.tty:
+            print(file=self.stream, flush=True)
+
+
+def _execute(
+    tasks: Sequence[Task], client: Any, on_result: Callable[[str, np.ndarray, dict[str, np.ndarray]], None], max_in_flight: int
+) -> None:
+    if client is None:
+        for t in tasks:
+            on_result(*execute_task(t))
+        return
+    from distributed import as_completed
+
+    it: Iterator[Task] = iter(tasks)
+    ac = as_completed()
+    submitted = []
+    try:
+        for t in it:
+            fut = client.submit(execute_task, t, key=t.key, retries=3, pure=False)
+            submitted.append(fut)
+            ac.add(fut)
+            if ac.count() >= max_in_flight:
+                break
+        for fut in ac:
+            on_result(*fut.result())
+            fut.release()
+            nxt = next(it, None)
+            if nxt is not None:
+                f2 = client.submit(execute_task, nxt, key=nxt.key, retries=3, pure=False)
+                submitted.append(f2)
+                ac.add(f2)
+    except BaseException:
+        client.cancel([f for f in submitted if not f.done()])
+        raise
+
+
+def git_sha() -> str:
+    """The git commit of the tumblemc source tree, or ``"unknown"``."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=5, check=True)
+        return out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def default_output(cfg: StudyConfig) -> Path:
+    return Path("results") / f"{cfg.name}.nc"
+
+
+def run_study(
+    config: str | os.PathLike[str] | StudyConfig | dict[str, Any],
+    client: Any = None,
+    *,
+    out: str | os.PathLike[str] | None = None,
+    fresh: bool = False,
+    progress: bool = True,
+    batch_size: int | None = None,
+    max_in_flight: int | None = None,
+) -> StudyResult:
+    """Run a study (or its missing runs) and write its netCDF file.
+
+    Parameters
+    ----------
+    config : path, dict or StudyConfig
+        The study (:func:`tumblemc.sampling.load_config`).
+    client : dask.distributed.Client, optional
+        Where to run the batches; ``None`` runs them in this process.
+    out : path, optional
+        Result file; default ``results/<study name>.nc``.
+    fresh : bool
+        Discard the shards (and result) of an earlier run instead of resuming; required
+        when the config changed.
+    progress : bool
+        Show a progress bar on stderr.
+    batch_size, max_in_flight : int, optional
+        Runs per task and tasks submitted at once (default: the config's ``[execution]``).
+
+    Returns
+    -------
+    StudyResult
+        ``runs`` and ``maps`` datasets (as in the file) and the file's path.
+    """
+    cfg = config if isinstance(config, StudyConfig) else load_config(config)
+    path = Path(out) if out is not None else default_output(cfg)
+    cjson, chash = config_to_json(cfg), config_hash(cfg)
+    if path.exists() and not fresh:
+        stored = result_attrs(path).get("config_hash")
+        if stored == chash:
+            runs, maps = open_result(path)
+            if progress:
+                print(f"{path} is complete ({runs.sizes['run']} runs); nothing to do", file=sys.stderr)
+            return StudyResult(runs, maps, path)
+        raise StudyStateError(
+            f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); use --fresh (fresh=True) to replace it, or another --out"
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    store = ShardStore(path, cjson, chash)
+    store.open(fresh=fresh)
+
+    des = design(cfg)
+    n = des.sizes["run"]
+    check_idx = check_subset(des)
+    bs = int(batch_size or cfg.execution.batch_size)
+    mif = int(max_in_flight or cfg.execution.max_in_flight or (4 * _n_workers(client) if client is not None else 1))
+    todo_main = np.setdiff1d(np.arange(n), store.done("main"))
+    todo_check = np.setdiff1d(check_idx, store.done("check"))
+    tasks = plan(cfg, des, "main", todo_main, bs, chash) + plan(cfg, des, "check", todo_check, bs, chash)
+    total = n + len(check_idx)
+    bar = Progress(total, total - len(todo_main) - len(todo_check), enabled=progress)
+    if progress and len(todo_main) < n:
+        print(f"resuming {cfg.name}: {n - len(todo_main)} of {n} runs already done", file=sys.stderr)
+
+    def on_result(kind: str, run: np.ndarray, outcome: dict[str, np.ndarray]) -> None:
+        store.write(kind, run, outcome)
+        bar.update(len(run))
+
+    try:
+        _execute(tasks, client, on_result, mif)
+    finally:
+        bar.close()
+    runs = assemble_runs(cfg, des, store.read("main"), check_idx, store.read("check"))
+    maps = make_maps(runs, level=cfg.ci_level, method=cfg.ci)
+    attrs = provenance(cfg, cjson, chash)
+    maps.attrs.update(attrs)
+    runs.attrs.update(attrs)
+    write_result(path, runs, maps, attrs)
+    store.remove()
+    return StudyResult(runs, maps, path)
+
+
+def _n_workers(client: Any) -> int:
+    try:
+        return max(1, len(client.scheduler_info()["workers"]))
+    except Exception:  # pragma: no cover - any client without that call
+        return 1
+
+
+def provenance(cfg: StudyConfig, cjson: str, chash: str) -> dict[str, Any]:
+    """CF/ACDD global attributes and provenance of a study file."""
+    now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
+    return {
+        "Conventions": "CF-1.10, ACDD-1.3",
+        "title": f"tumblemc study {cfg.name}",
+        "summary": cfg.description or f"Monte Carlo robustness study {cfg.name}",
+        "source": f"tumblemc {__version__}",
+        "history": f"{now} tumblemc {__version__} run_study {cfg.name}",
+        "date_created": now,
+        "tumblemc_version": __version__,
+        "git_sha": git_sha(),
+        "study_name": cfg.name,
+        "config_json": cjson,
+        "config_hash": chash,
+        "seed": int(cfg.seed),
+        "success_ratio": float(cfg.success_ratio),
+        "uncertain": ",".join(cfg.uncertain_names),
+    }
+
+
+TIMESTAMP_ATTRS = ("history", "date_created")
+
+
+def assemble_runs(
+    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
+) -> xr.Dataset:
+    """The ``runs`` group: the design plus every run's outcome and the check subset."""
+    n = des.sizes["run"]
+    runs = des.copy()
+    if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
+        raise RuntimeError("internal error: the shards do not hold every run of the study")
+    for k, dtype in OUTCOMES.items():
+        runs[k] = ("run", main[k].astype(dtype))
+        runs[k].attrs.update(OUTCOME_ATTRS[k])
+    runs["error"] = ("run", main["error"].astype(str))
+    runs["error"].attrs.update(OUTCOME_ATTRS["error"])
+    runs["climbed"].attrs["ancillary_variables"] = "status progress_ratio"
+    runs["progress_ratio"].attrs["ancillary_variables"] = "status"
+    if len(check_idx):
+        pos = np.searchsorted(check["run"], check_idx)
+        fine_ratio = check["progress_ratio"][pos]
+        fine_climbed = check["climbed"][pos].astype(np.int8)
+        runs["check_run"] = ("check", check_idx)
+        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a run re-simulated at dt / check_dt_factor"})
+        runs["check_progress_ratio_fine"] = ("check", fine_ratio)
+        runs["check_progress_ratio_fine"].attrs.update({"units": "1", "long_name": "progress ratio of the re-simulation at the finer dt"})
+        runs["check_climbed_fine"] = ("check", fine_climbed)
+        runs["check_climbed_fine"].attrs.update(
+            {"units": "1", "long_name": "verdict of the re-simulation at the finer dt", "flag_values": [0, 1], "flag_meanings": "no yes"}
+        )
+        runs["check_status_fine"] = ("check", check["status"][pos].astype(np.int8))
+        runs["check_status_fine"].attrs.update({"units": "1", "long_name": "status of the re-simulation at the finer dt", **STATUS_FLAGS})
+        agree = (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8)
+        runs["check_agree"] = ("check", agree)
+        runs["check_agree"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdict at the study dt equals the verdict at the finer dt",
+                "flag_values": [0, 1],
+                "flag_meanings": "no yes",
+            }
+        )
+        d = np.abs(fine_ratio - runs["progress_ratio"].values[check_idx])
+        runs.attrs["check_agreement_rate"] = float(agree.mean())
+        runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
+        runs.attrs["check_max_abs_ratio_diff"] = float(np.nanmax(d)) if np.isfinite(d).any() else math.nan
+        runs = runs.assign_coords(check=np.arange(len(check_idx)))
+        runs["check"].attrs.update({"units": "1", "long_name": "index of a numerical-check run"})
+    if "run" in runs.coords:
+        runs["run"].attrs.update({"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"})
+    runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
+    runs.attrs["dt"] = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    return runs
+
+
+def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """How far a study got: from its config (and the default or given result path) or from
+    a result file. Keys: ``state`` ("not started", "partial", "complete"), ``done``,
+    ``total``, ``failed`` and, when complete, the check summary."""
+    p = Path(config_or_result)
+    if p.suffix == ".nc":
+        runs, _ = open_result(p)
+        return _complete_status(runs, p)
+    cfg = load_config(p)
+    path = Path(out) if out is not None else default_output(cfg)
+    if path.exists():
+        runs, _ = open_result(path)
+        return _complete_status(runs, path)
+    des = design(cfg)
+    n = des.sizes["run"]
+    nc = len(check_subset(des))
+    store = ShardStore(path, config_to_json(cfg), config_hash(cfg))
+    main = store.read("main")
+    done = len(main.get("run", ()))
+    failed = int(np.count_nonzero(main["status"] != 0)) if done else 0
+    return {
+        "state": "partial" if done or store.dir.exists() else "not started",
+        "path": str(path),
+        "done": done,
+        "total": n,
+        "check_done": len(store.done("check")),
+        "check_total": nc,
+        "failed": failed,
+    }
+
+
+def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
+    st = runs["status"].values
+    out: dict[str, Any] = {
+        "state": "complete",
+        "path": str(path),
+        "done": int(runs.sizes["run"]),
+        "total": int(runs.sizes["run"]),
+        "failed": int(np.count_nonzero(st != 0)),
+    }
+    for k in ("check_agreement_rate", "check_median_abs_ratio_diff", "check_max_abs_ratio_diff", "check_dt_factor"):
+        if k in runs.attrs:
+            out[k] = runs.attrs[k]
+    if "check_run" in runs:
+        out["check_total"] = out["check_done"] = int(runs.sizes["check"])
+    return out
+
+
+__all__ = ["StudyResult", "Task", "check_subset", "execute_task", "plan", "run_study", "study_status"]
+
+
+def warm_kernels() -> float:
+    """Compile (or load from the Numba cache) every kernel a study uses, in this process;
+    workers started afterwards load them from the cache instead of compiling each."""
+    t0 = time.perf_counter()
+    simulate_rows("cuboid", [{"preset": "paper", "freq_hz": 1000.0}], TimeGrid(periods=2.0))
+    return time.perf_counter() - t0
+
+
+def local_client(workers: int | None = None) -> Any:
+    """A ``dask.distributed`` client on an embedded LocalCluster: one process per worker,
+    one thread each (the kernels are single-threaded; processes avoid any GIL contention
+    in the Python layer), Numba's cache warmed in this process first."""
+    from distributed import Client, LocalCluster
+
+    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    warm_kernels()
+    n = int(workers or os.cpu_count() or 1)
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50)
+    return Client(cluster)
