@@ -210,7 +210,7 @@ def test_defaults() -> None:
     assert (c.mode, c.periods, c.transient_periods, c.dt, c.torque) == ("grid", 2.0, 1.0, None, "start")
     assert (c.success_ratio, c.sampler, c.ci, c.ci_level) == (0.5, "mc", "wilson", 0.95)
     assert (c.check.fraction, c.check.min_runs, c.check.dt_factor) == (0.02, 20, 4)
-    assert c.execution.batch_size == 16
+    assert c.execution.batch_size == 8
     assert {u.param: u.to_dict() for u in c.uncertain} == DEFAULT_UNCERTAIN
     assert cfg(uncertain={}).uncertain == ()
     assert design(cfg(uncertain={})).data_vars.keys() == {"check_flag"}

@@ -14,6 +14,7 @@ projects onto the (s, h) plane without distortion.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -287,3 +288,88 @@ def plot_run(
 
 
 __all__ = ["plot_run", "side_view_outline"]
+
+
+def plot_shapes(
+    shapes: Sequence[str | Shape] | None = None,
+    path: str | os.PathLike[str] | None = None,
+    *,
+    dpi: int = 150,
+) -> Figure:
+    """The shape library in the body y-z plane, one panel per shape; PNG if ``path``.
+
+    Each panel fills the real outline, draws the hull faces of the profile (blue: real
+    face, labelled with its adhering area in µm²; red: line contact, labelled "line"),
+    marks the centre of mass (the body origin) and gives the thickness, the area of the
+    ±x faces and the hull perimeter (the no-slip distance per field revolution), all in µm.
+
+    Parameters
+    ----------
+    shapes : sequence of str or Shape, optional
+        Names in :data:`tumblemc.shapes.SHAPES` or Shape objects; default: every shape
+        of the library.
+    path : path-like, optional
+        Where to save the figure (any matplotlib format; PNG by its suffix).
+    dpi : int
+        Resolution of the saved figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A figure not registered with pyplot (nothing global to close).
+    """
+    from .shapes import SHAPES
+
+    names = list(SHAPES) if shapes is None else list(shapes)
+    if not names:
+        raise ValueError("shapes=[] is not allowed (allowed: None for all, or at least one shape)")
+    shps = [get_shape(s) for s in names]
+    ncols = min(2, len(shps))
+    nrows = -(-len(shps) // ncols)
+    fig = Figure(figsize=(6.4 * ncols, 3.9 * nrows + 0.4), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax, shp in zip(axes.flat, shps, strict=False):
+        out = np.asarray(shp.outline) * UM
+        ax.fill(out[:, 0], out[:, 1], facecolor="0.85", edgecolor="k", lw=0.8, zorder=1)
+        for c, pts in shp.hull_faces():
+            xy = pts * UM
+            color = "C3" if c.line else "C0"
+            ax.plot(xy[:, 0], xy[:, 1], color=color, lw=1.8, zorder=2, solid_capstyle="round")
+            if c.kind == "plane":
+                mid = 0.5 * (xy[0] + xy[-1])
+                nrm = np.array(c.data[1:3])
+            else:
+                mid = xy[len(xy) // 2]
+                nrm = mid - np.array(c.data[:2]) * UM
+                nrm = nrm / np.linalg.norm(nrm)
+            text = "line" if c.line else f"{c.area * UM**2:.0f} µm²"
+            ha = "left" if nrm[0] > 0.3 else "right" if nrm[0] < -0.3 else "center"
+            va = "bottom" if nrm[1] > 0.3 else "top" if nrm[1] < -0.3 else "center"
+            ax.annotate(text, mid, xytext=tuple(8 * nrm), textcoords="offset points", ha=ha, va=va, fontsize=7, color=color)
+        ax.plot([0.0], [0.0], "k+", ms=8, zorder=3)
+        pad = 0.3 * float(np.ptp(out, axis=0).max())  # room for the labels
+        ax.set_xlim(out[:, 0].min() - 1.4 * pad, out[:, 0].max() + 1.4 * pad)
+        ax.set_ylim(out[:, 1].min() - pad, out[:, 1].max() + pad)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel("body y (µm)")
+        ax.set_ylabel("body z (µm)")
+        ax.grid(True, alpha=0.25)
+        side = shp.pieces[0].constraints[0].area if shp.pieces and shp.pieces[0].constraints else float("nan")
+        ax.set_title(
+            f"{shp.name}: thickness {shp.thickness * UM:.0f} µm, ±x faces {side * UM**2:.0f} µm²\n"
+            f"hull perimeter {shp.hull_perimeter * UM:.0f} µm, inertia: {shp.mass_model}",
+            fontsize=9,
+        )
+    for ax in axes.flat[len(shps) :]:
+        ax.set_visible(False)
+    fig.suptitle(
+        "Shapes (body frame, + = centre of mass; the robot starts with body +z on the plane)\n"
+        "blue: real hull face and its adhering area; red: line contact",
+        fontsize=10,
+    )
+    if path is not None:
+        fig.savefig(path, dpi=dpi)
+    return fig
+
+
+__all__ += ["plot_shapes"]

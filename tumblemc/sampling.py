@@ -40,7 +40,7 @@ ci                   ``"wilson"`` (default) or ``"clopper-pearson"``
 ci_level             confidence level of the intervals (default 0.95)
 [check]              numerical-error subset re-simulated at ``dt / dt_factor``:
                      ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4)
-[execution]          how to run, not what: ``batch_size`` (16), ``max_in_flight``,
+[execution]          how to run, not what: ``batch_size`` (8), ``max_in_flight``,
                      ``workers``; excluded from :func:`config_hash`
 [uncertain.<param>]  one table per uncertain parameter (below)
 ===================  ===================================================================
@@ -322,7 +322,7 @@ class ExecutionConfig:
     """How a study is run (not part of its identity): runs per dask task, tasks in
     flight and workers (``None``: the engine decides)."""
 
-    batch_size: int = 16
+    batch_size: int = 8
     max_in_flight: int | None = None
     workers: int | None = None
 
@@ -782,7 +782,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
     et = _table("execution", d.get("execution", {}))
     _no_unknown(et, ("batch_size", "max_in_flight", "workers"), "execution")
     execution = ExecutionConfig(
-        batch_size=_int("execution.batch_size", et.get("batch_size", 16), 1, 10**6),
+        batch_size=_int("execution.batch_size", et.get("batch_size", 8), 1, 10**6),
         max_in_flight=None if et.get("max_in_flight") is None else _int("execution.max_in_flight", et["max_in_flight"], 1, 10**6),
         workers=None if et.get("workers") is None else _int("execution.workers", et["workers"], 1, 10**5),
     )

@@ -1,16 +1,38 @@
 """Robot shapes as data: unions of convex pieces, each an intersection of smooth convex
 constraints in body coordinates, with the adhering area of each face.
 
-Body frame: x = width (the rotation axis of tumbling), y = length, z = height, origin at
-the centre of mass. Contact with a plane only touches a piece's convex hull, so a piece is
-its hull; each hull constraint carries the area of real material that touches the plane
-when that face alone is down, and whether that contact is a line contact (a curved face,
-or a hull face that only bridges edges of the body).
+Body frame: x = width or thickness (the rotation axis of tumbling), y = length,
+z = height, origin at the centre of mass. The robot starts lying with body +z along -n,
+pointing into the plane (MODEL.md, "Frames and state"). All lengths in metres.
+
+Contact with a plane only touches a piece's convex hull, so a piece is its hull; each hull
+constraint carries the area of real material that touches the plane when that face alone
+is down, and whether that contact is a line contact (a curved face, or a hull face that
+only bridges edges of the body).
+
+Every shape of the library is one piece, a profile in the body y-z plane extruded along x
+(:func:`extruded`). Rule for the adhering area of a hull face (MODEL.md, "Shapes"):
+
+- a hull face that coincides with real flat faces of the profile adheres with the real
+  part: ``overlap length x thickness``, ``line=False``;
+- a hull face that only bridges (touches the real profile at vertices only) is a line
+  contact, ``line=True``, with the nominal area ``hull edge length x thickness``;
+- a convex outward arc on the hull is a ``cylinder_x`` constraint, ``line=True``, with its
+  real area ``arc length x thickness``;
+- the two thickness faces ``+-x`` are real: the profile's area, ``line=False``.
+
+The time-stepper uses ``line_contact_fraction x area`` for a line contact (and for two or
+more faces touching at once, the smallest of their areas), so the nominal area of a
+bridging face only enters scaled by that fraction.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
@@ -19,6 +41,22 @@ from .kernels.stepper import Geometry
 from .units import LENGTH_M
 
 KINDS = {"plane": L.C_PLANE, "cylinder_x": L.C_CYL_X}
+#: how ``Shape.inertia_per_mass`` was obtained
+MASS_MODELS = ("profile", "aluminum_robot")
+#: allowed range of every dimension (m): anything outside is a unit mistake
+MIN_DIM_M, MAX_DIM_M = 1e-6, 1e-1
+#: default sampling sagitta of curved hull faces for the kernel's support points, m
+ARC_TOL_M = 1e-9
+#: angular step of arcs in the plotted outline
+OUTLINE_STEP_RAD = math.radians(1.0)
+#: most vertices of a profile (its checks compare all pairs of edges)
+MAX_VERTICES = 2000
+#: geometric tolerance of the hull construction, relative to the profile's size
+REL_TOL = 1e-9
+#: the aluminum robot (MODEL.md, Table 3): the paper's cuboid, 0.8 x 0.4 x 0.1 mm (L x W x H)
+ALUMINUM_ROBOT_LWH_M = (800e-6, 400e-6, 100e-6)
+#: body directions by which hull faces are grouped and ordered (the cuboid's order)
+_GROUPS = (("+y", (1.0, 0.0)), ("-y", (-1.0, 0.0)), ("+z", (0.0, 1.0)), ("-z", (0.0, -1.0)))
 
 
 @dataclass(frozen=True)
@@ -37,6 +75,14 @@ class Constraint:
     area: float
     line: bool = False
     label: str = ""
+
+    def value(self, p: np.ndarray) -> np.ndarray:
+        """``f`` at body points ``p`` (..., 3), m."""
+        p = np.asarray(p, dtype=float)
+        d = self.data
+        if self.kind == "plane":
+            return p[..., 0] * d[0] + p[..., 1] * d[1] + p[..., 2] * d[2] - d[3]
+        return np.hypot(p[..., 1] - d[0], p[..., 2] - d[1]) - d[2]
 
 
 @dataclass(frozen=True)
@@ -64,6 +110,12 @@ class Shape:
     hull_perimeter : perimeter of the convex hull of the y-z profile, m; the no-slip
         distance per field revolution.
     inertia_per_mass : 3x3 body inertia about the CM divided by the mass, m^2.
+    mass_model : how ``inertia_per_mass`` was obtained: ``"profile"`` (uniform density
+        over the extruded profile) or ``"aluminum_robot"`` (the 0.8 x 0.4 x 0.1 mm cuboid
+        of the aluminum robot, MODEL.md: non-cuboid shapes keep its inertia).
+    profile_area : area of the real y-z profile, m^2.
+    cm_shift : (y, z) of the profile's area centroid in the coordinates the profile was
+        given in, m: the body frame is the given one shifted by ``-cm_shift``.
     """
 
     name: str
@@ -72,31 +124,85 @@ class Shape:
     thickness: float
     hull_perimeter: float
     inertia_per_mass: np.ndarray
+    mass_model: str = "profile"
+    profile_area: float = math.nan
+    cm_shift: tuple[float, float] = (0.0, 0.0)
 
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia about the CM, kg m^2."""
         return mass * self.inertia_per_mass
 
+    def mass(self, density: float) -> float:
+        """Mass (kg) of the extruded profile at uniform ``density`` (kg/m^3):
+        ``density x profile_area x thickness``. The simulated mass comes from the Params
+        preset; this helps choose it for a new shape."""
+        if (
+            isinstance(density, bool)
+            or not isinstance(density, (int, float, np.integer, np.floating))
+            or not (math.isfinite(density) and density > 0)
+        ):
+            raise ValueError(f"density={density!r} is not allowed (allowed: a finite value > 0, kg/m^3)")
+        if not math.isfinite(self.profile_area):
+            raise ValueError(f"shape {self.name!r} has no profile_area, so its mass cannot be computed")
+        return float(density) * self.profile_area * self.thickness
+
     def rest_height(self) -> float:
-        """CM height above the plane when lying with body +z along -n (MODEL.md)."""
-        return max(float(np.max(p.support_points[:, 2])) + p.support_pad for p in self.pieces)
+        """CM height above the plane when lying with body +z along -n (MODEL.md): the
+        exact largest body z of the pieces (support points, and the top of any
+        ``cylinder_x`` face whose top lies on the piece)."""
+        return max(_piece_top(p) for p in self.pieces)
 
     def rest_face_area(self, line_contact_fraction: float) -> float:
-        """Adhering area (m^2) in the initial pose, lying with body +z along -n: the
-        constraints of the lowest piece(s) whose outward normal is body +z at the rest
-        height, with the same rule as the time-stepper (one flat face: its area; otherwise
-        ``line_contact_fraction`` x the smallest)."""
+        """Adhering area (m^2) in the initial pose, lying with body +z along -n, with the
+        time-stepper's rule: the faces of the lowest piece(s) whose outward normal is body
+        +z at the rest height (one flat face: its area; one line face or several:
+        ``line_contact_fraction`` x the smallest); if none (the piece stands on an edge
+        along x), the constraints active on that edge, as line contact."""
         h = self.rest_height()
         total = 0.0
         for p in self.pieces:
-            if float(np.max(p.support_points[:, 2])) + p.support_pad < h - 1e-12:
+            top = _piece_top(p)
+            if top < h - 1e-12:
                 continue
-            down = [c for c in p.constraints if c.kind == "plane" and abs(c.data[2] - 1.0) < 1e-9 and abs(c.data[3] - h) < 1e-12]
+            down = [c for c in p.constraints if _touches_top(c, p, top)]
             if len(down) == 1 and not down[0].line:
                 total += down[0].area
             elif down:
                 total += line_contact_fraction * min(c.area for c in down)
+            else:
+                pts = p.support_points[p.support_points[:, 2] >= top - 1e-12]
+                centre = pts.mean(axis=0)
+                active = [c for c in p.constraints if abs(float(c.value(centre))) <= 1e-12]
+                if active:
+                    total += line_contact_fraction * min(c.area for c in active)
         return total
+
+    def hull_faces(self) -> list[tuple[Constraint, np.ndarray]]:
+        """Each hull face of the y-z profile (constraints not normal to x) with its (K, 2)
+        polyline in the body y-z plane, m: the two end points of a flat face, the sampled
+        points of a curved one (for plots)."""
+        out = []
+        for p in self.pieces:
+            pts = p.support_points
+            top = pts[pts[:, 0] >= pts[:, 0].max() - 1e-12]
+            size = float(np.ptp(top[:, 1:], axis=0).max())
+            for c in p.constraints:
+                if c.kind == "plane" and abs(c.data[0]) > 0.5:
+                    continue
+                on = top[np.abs(c.value(top)) <= REL_TOL * size + p.support_pad]
+                yz = on[:, 1:]
+                if len(yz) < 2:
+                    continue
+                if c.kind == "plane":
+                    t = np.array([-c.data[2], c.data[1]])
+                    s = yz @ t
+                    yz = yz[[int(np.argmin(s)), int(np.argmax(s))]]
+                else:  # by angle about the axis, measured from the middle direction
+                    rel = yz - np.array(c.data[:2])
+                    mid = rel.mean(axis=0)
+                    yz = yz[np.argsort(np.arctan2(_cross(mid, rel), rel @ mid))]
+                out.append((c, yz))
+        return out
 
     def geometry(self) -> Geometry:
         """Kernel arrays in scaled units (length unit ``tumblemc.units.LENGTH_M``)."""
@@ -118,11 +224,550 @@ class Shape:
         return Geometry(ctype, cdata, carea, cline, pstart, np.ascontiguousarray(sup_pts), sup_start, sup_pad)
 
 
+def _piece_top(p: Piece) -> float:
+    """Exact largest body z of a piece: its support points, or a cylinder's top on it."""
+    top = float(np.max(p.support_points[:, 2]))
+    for c in p.constraints:
+        if c.kind == "cylinder_x":
+            apex = np.array([0.0, c.data[0], c.data[1] + c.data[2]])
+            if all(float(o.value(apex)) <= 1e-12 for o in p.constraints if o is not c):
+                top = max(top, float(apex[2]))
+    return top
+
+
+def _touches_top(c: Constraint, p: Piece, top: float) -> bool:
+    """Whether face ``c`` of piece ``p`` has outward normal +z where it reaches ``top``."""
+    if c.kind == "plane":
+        return abs(c.data[2] - 1.0) < 1e-9 and abs(c.data[3] - top) < 1e-12
+    apex = np.array([0.0, c.data[0], c.data[1] + c.data[2]])
+    return abs(float(apex[2]) - top) < 1e-12 and all(float(o.value(apex)) <= 1e-12 for o in p.constraints if o is not c)
+
+
+# ---------------------------------------------------------------------------------------
+# profile geometry: validation, arcs, exact area moments, convex hull
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Arc:
+    """A circular arc replacing profile edge ``a -> b`` (CCW profile).
+
+    sign : +1 bulging outward (adds material), -1 bulging inward (removes material).
+    th0, th1 : polar angles (about ``centre``) of ``a`` and ``b``; the arc runs from th0
+        to th1 through ``mid`` = the direction of the bulge.
+    beta : half the arc's opening angle (< pi / 2 + tiny: minor arcs only).
+    """
+
+    centre: np.ndarray
+    radius: float
+    sign: int
+    th0: float
+    th1: float
+    beta: float
+    mid: np.ndarray
+
+    def angles(self, n: int) -> np.ndarray:
+        return self.th0 + (self.th1 - self.th0) * np.arange(n + 1) / n
+
+    def points(self, n: int) -> np.ndarray:
+        th = self.angles(n)
+        return self.centre + self.radius * np.column_stack([np.cos(th), np.sin(th)])
+
+
+def _dim_error(arg: str, what: str | None, value: float) -> ValueError:
+    hint = "looks like micrometres; give metres" if value > MAX_DIM_M else "give metres"
+    name = f"{arg}={value!r} m" if what is None else f"{arg}: {what} = {value!r} m"
+    return ValueError(f"{name} is outside {MIN_DIM_M:g}..{MAX_DIM_M:g} m ({hint})")
+
+
+def _check_dim(arg: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(float(value)):
+        raise ValueError(f"{arg}={value!r} is not allowed (allowed: a finite length in metres, {MIN_DIM_M:g}..{MAX_DIM_M:g})")
+    x = float(value)
+    if not MIN_DIM_M <= x <= MAX_DIM_M:
+        raise _dim_error(arg, None, x)
+    return x
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _check_profile(profile: Any) -> np.ndarray:
+    """(N, 2) float array of a valid profile, as given (orientation unchanged)."""
+    try:
+        v = np.array(profile, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"profile={profile!r} is not allowed (allowed: an (N, 2) array of (y, z) vertices in metres, N >= 3)") from None
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"profile has shape {v.shape} (allowed: (N, 2), the (y, z) vertices in metres)")
+    if not 3 <= len(v) <= MAX_VERTICES:
+        raise ValueError(f"profile has {len(v)} vertices (allowed: at least 3, at most {MAX_VERTICES})")
+    if not np.all(np.isfinite(v)):
+        bad = np.argwhere(~np.isfinite(v))[0]
+        raise ValueError(f"profile[{bad[0]}] = {v[bad[0]].tolist()} is not finite (allowed: finite (y, z) in metres)")
+    sv = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
+    if sv[-1] <= REL_TOL * sv[0]:
+        raise ValueError(
+            f"profile has zero area: its {len(v)} vertices are (nearly) collinear (allowed: a simple polygon enclosing an area)"
+        )
+    for k, axis in enumerate("yz"):
+        ext = float(np.ptp(v[:, k]))
+        if not MIN_DIM_M <= ext <= MAX_DIM_M:
+            raise _dim_error("profile", f"its extent along {axis}", ext)
+    size = float(np.ptp(v, axis=0).max())
+    d = np.hypot(v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1])
+    ri, rj = np.nonzero(np.triu(d <= REL_TOL * size, 1))
+    if len(ri):
+        raise ValueError(
+            f"profile has repeated vertices {int(ri[0])} and {int(rj[0])} at {v[ri[0]].tolist()} "
+            "(allowed: each vertex once; the polygon closes itself, do not repeat the first vertex)"
+        )
+    hit = _self_intersection(v)
+    if hit is not None:
+        i, j = hit
+        raise ValueError(
+            f"profile is self-intersecting: edges {i} ({v[i].tolist()} to {v[(i + 1) % len(v)].tolist()}) and {j} "
+            f"({v[j].tolist()} to {v[(j + 1) % len(v)].tolist()}) cross or touch (allowed: a simple polygon)"
+        )
+    area = 0.5 * math.fsum(_cross(v, np.roll(v, -1, axis=0)))
+    if abs(area) <= REL_TOL * size**2:
+        raise ValueError(f"profile has (near-)zero area {area!r} m^2 (allowed: a simple polygon enclosing an area)")
+    return v
+
+
+def _self_intersection(p: np.ndarray) -> tuple[int, int] | None:
+    """First pair of edges of the closed polygon ``p`` (N, 2) that touch or cross, other
+    than neighbours sharing their common vertex (a neighbour folding back counts)."""
+    n = len(p)
+    a, b = p, np.roll(p, -1, axis=0)
+    size = float(np.ptp(p, axis=0).max())
+    eps = REL_TOL * size**2
+    # neighbours: a fold-back (angle 0) makes them overlap
+    d0, d1 = b - a, np.roll(b - a, -1, axis=0)
+    fold = (np.abs(_cross(d0, d1)) <= REL_TOL * np.hypot(*d0.T) * np.hypot(*d1.T)) & (np.einsum("ij,ij->i", d0, d1) < 0)
+    if np.any(fold):
+        first = int(np.argmax(fold))
+        return first, (first + 1) % n
+    i, j = np.triu_indices(n, 2)
+    keep = ~((i == 0) & (j == n - 1))
+    i, j = i[keep], j[keep]
+    p1, p2, q1, q2 = a[i], b[i], a[j], b[j]
+    o1, o2 = _cross(p2 - p1, q1 - p1), _cross(p2 - p1, q2 - p1)
+    o3, o4 = _cross(q2 - q1, p1 - q1), _cross(q2 - q1, p2 - q1)
+    proper = (o1 * o2 < 0) & (o3 * o4 < 0)
+
+    def on_seg(s0: np.ndarray, s1: np.ndarray, q: np.ndarray, o: np.ndarray) -> np.ndarray:
+        lo, hi = np.minimum(s0, s1) - REL_TOL * size, np.maximum(s0, s1) + REL_TOL * size
+        return (np.abs(o) <= eps) & np.all((q >= lo) & (q <= hi), axis=1)
+
+    touch = on_seg(p1, p2, q1, o1) | on_seg(p1, p2, q2, o2) | on_seg(q1, q2, p1, o3) | on_seg(q1, q2, p2, o4)
+    hit = proper | touch
+    if np.any(hit):
+        k = int(np.argmax(hit))
+        return int(i[k]), int(j[k])
+    return None
+
+
+def _make_arc(a: np.ndarray, b: np.ndarray, radius: float) -> _Arc:
+    """Minor arc of signed ``radius`` on edge ``a -> b`` of a CCW profile."""
+    r = abs(radius)
+    c = float(np.hypot(*(b - a)))
+    beta = math.asin(min(1.0, c / (2.0 * r)))
+    t = (b - a) / c
+    n_out = np.array([t[1], -t[0]])  # exterior is on the right of a CCW profile
+    sign = 1 if radius > 0 else -1
+    mid = sign * n_out
+    centre = 0.5 * (a + b) - mid * r * math.cos(beta)
+    thm = math.atan2(mid[1], mid[0])
+    # a lies at thm + delta with delta = +-beta
+    delta = beta if _cross(mid, a - centre) > 0 else -beta
+    return _Arc(centre, r, sign, thm + delta, thm - delta, beta, mid)
+
+
+def _check_arcs(arcs: Any, v: np.ndarray) -> dict[int, float]:
+    if arcs is None:
+        return {}
+    if not isinstance(arcs, Mapping):
+        raise ValueError(f"arcs={arcs!r} is not allowed (allowed: None or a mapping {{edge index: signed radius in m}})")  # noqa: TRY004
+    n = len(v)
+    out: dict[int, float] = {}
+    for k, rad in arcs.items():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not -n <= int(k) < n:
+            raise ValueError(f"arcs key {k!r} is not allowed (allowed: an edge index 0..{n - 1}; edge i joins vertex i to vertex i+1)")
+        ki = int(k) % n
+        if ki in out:
+            raise ValueError(f"arcs gives edge {ki} twice (keys {k!r} and another index of the same edge)")
+        if isinstance(rad, bool) or not isinstance(rad, (int, float, np.integer, np.floating)) or not math.isfinite(float(rad)) or rad == 0:
+            raise ValueError(f"arcs[{k!r}]={rad!r} is not allowed (allowed: a finite nonzero signed radius in m; > 0 bulges outward)")
+        r = abs(float(rad))
+        if r > MAX_DIM_M:
+            raise _dim_error(f"arcs[{k!r}]", "the radius", r)
+        chord = float(np.hypot(*(v[(ki + 1) % n] - v[ki])))
+        if r < 0.5 * chord * (1.0 - 1e-12):
+            raise ValueError(
+                f"arcs[{k!r}]={rad!r} is too small for edge {ki} of length {chord!r} m (allowed: |radius| >= half the edge, {0.5 * chord!r} m)"
+            )
+        out[ki] = float(rad)
+    return out
+
+
+def _outline(v: np.ndarray, arcs: dict[int, _Arc], step: float) -> np.ndarray:
+    """Closed outline: vertices with arcs sampled at most ``step`` rad apart."""
+    pts = []
+    for i in range(len(v)):
+        pts.append(v[i])
+        if i in arcs:
+            arc = arcs[i]
+            n = max(4, math.ceil(abs(arc.th1 - arc.th0) / step))
+            pts.extend(arc.points(n)[1:-1])
+    pts.append(v[0])
+    return np.array(pts)
+
+
+def _polygon_moments(v: np.ndarray) -> list[Fraction]:
+    """[A, Sy, Sz, Syy, Szz, Syz] of a CCW polygon about the origin, in exact rational
+    arithmetic on the given floats (Green's theorem; ``S_ab`` = integral of a b dA)."""
+    acc = [Fraction(0)] * 6
+    q = [(Fraction(float(y)), Fraction(float(z))) for y, z in v]
+    for (y0, z0), (y1, z1) in zip(q, q[1:] + q[:1], strict=True):
+        c = y0 * z1 - y1 * z0
+        terms = [c / 2, (y0 + y1) * c / 6, (z0 + z1) * c / 6, (y0 * y0 + y0 * y1 + y1 * y1) * c / 12]
+        terms += [(z0 * z0 + z0 * z1 + z1 * z1) * c / 12, (y0 * z1 + 2 * y0 * z0 + 2 * y1 * z1 + y1 * z0) * c / 24]
+        acc = [a + t for a, t in zip(acc, terms, strict=True)]
+    return acc
+
+
+def _segment_moments(arc: _Arc) -> np.ndarray:
+    """[A, Sy, Sz, Syy, Szz, Syz] about the origin of the circular segment between the arc
+    and its chord (positive; the caller adds or removes it)."""
+    r, b = arc.radius, arc.beta
+    sb, cb = math.sin(b), math.cos(b)
+    area = r * r * (b - sb * cb)
+    m1 = 2.0 / 3.0 * r**3 * sb**3  # first moment along mid, about the centre
+    mww = r**4 / 4.0 * (b + sb * cb) - r**4 * sb * cb**3 / 2.0
+    muu = r**4 / 4.0 * (b - sb * cb) - r**4 * sb**3 * cb / 6.0
+    w = arc.mid
+    u = np.array([-w[1], w[0]])
+    o = arc.centre
+    first = area * o + m1 * w
+    second = area * np.outer(o, o) + m1 * (np.outer(o, w) + np.outer(w, o)) + muu * np.outer(u, u) + mww * np.outer(w, w)
+    return np.array([area, first[0], first[1], second[0, 0], second[1, 1], second[0, 1]])
+
+
+def _moments(v: np.ndarray, arcs: dict[int, _Arc]) -> list[Fraction]:
+    """[A, Sy, Sz, Syy, Szz, Syz] of the profile about the origin: the polygon exactly,
+    plus or minus the circular segments of its arcs (closed forms in floating point)."""
+    m = _polygon_moments(v)
+    for arc in arcs.values():
+        m = [a + arc.sign * Fraction(float(t)) for a, t in zip(m, _segment_moments(arc), strict=True)]
+    return m
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """Indices of the strict convex hull of ``points`` (M, 2), CCW, nearly collinear
+    points dropped (relative tolerance ``REL_TOL`` on the turn's sine)."""
+    order = np.lexsort((points[:, 1], points[:, 0]))
+
+    def turn_ok(o: int, a: int, b: int) -> bool:
+        da, db = points[a] - points[o], points[b] - points[a]
+        return bool(_cross(da, db) > REL_TOL * math.hypot(*da) * math.hypot(*db))
+
+    def chain(idx: np.ndarray) -> list[int]:
+        out: list[int] = []
+        for k in idx:
+            while len(out) >= 2 and not turn_ok(out[-2], out[-1], int(k)):
+                out.pop()
+            out.append(int(k))
+        return out
+
+    lower, upper = chain(order), chain(order[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+@dataclass
+class _HullFace:
+    """A face of the profile's hull: straight from ``p0`` to ``p1``, or the whole outward
+    arc ``arc`` (from ``p0`` to ``p1``, CCW about its centre)."""
+
+    p0: np.ndarray
+    p1: np.ndarray
+    arc: _Arc | None = None
+
+    @property
+    def length(self) -> float:
+        if self.arc is None:
+            return float(math.hypot(*(self.p1 - self.p0)))
+        return self.arc.radius * (self.arc.th1 - self.arc.th0)
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Outward unit normal (of a straight face; at the middle of an arc)."""
+        if self.arc is None:
+            d = self.p1 - self.p0
+            return np.array([d[1], -d[0]]) / math.hypot(*d) + 0.0
+        return self.arc.mid
+
+
+def _farthest(arc: _Arc, centre: np.ndarray) -> float:
+    """Largest distance from ``centre`` to a point of ``arc`` (exact)."""
+    ends = arc.centre + arc.radius * np.array([[math.cos(arc.th0), math.sin(arc.th0)], [math.cos(arc.th1), math.sin(arc.th1)]])
+    best = float(np.hypot(*(ends - centre).T).max())
+    d = arc.centre - centre
+    dist = math.hypot(*d)
+    if dist > 0.0:  # the circle's farthest point from centre, if it lies on the arc
+        off = (math.atan2(d[1], d[0]) - 0.5 * (arc.th0 + arc.th1) + math.pi) % (2.0 * math.pi) - math.pi
+        if abs(off) <= arc.beta:
+            best = max(best, dist + arc.radius)
+    return best
+
+
+def _hull_faces(v: np.ndarray, arcs: dict[int, _Arc], step: float, user_edge: dict[int, int]) -> list[_HullFace]:
+    """Hull of a CCW profile with arcs: straight faces and whole outward arcs, CCW.
+
+    Built from the vertices and the outward arcs sampled ``step`` rad apart. An outward
+    arc on the hull becomes one ``cylinder_x`` constraint, so its circle must contain the
+    whole hull (else the hull is not the intersection of its faces); then the arc lies on
+    the hull from end to end, between corners.
+    """
+    nv = len(v)
+    out_arcs = {k: a for k, a in arcs.items() if a.sign > 0}
+    nsamp = {k: max(2, math.ceil((a.th1 - a.th0) / step)) for k, a in out_arcs.items()}
+    allp = np.concatenate([v] + [out_arcs[k].points(nsamp[k])[1:-1] for k in out_arcs])
+    owner = [-1] * nv + [k for k in out_arcs for _ in range(1, nsamp[k])]
+    h = [int(i) for i in _hull(allp)]
+    on_hull = sorted({owner[i] for i in h if owner[i] >= 0})
+    size = float(np.ptp(v, axis=0).max())
+    for k in on_hull:
+        arc = out_arcs[k]
+        reach = max([float(np.hypot(*(v - arc.centre).T).max())] + [_farthest(out_arcs[j], arc.centre) for j in out_arcs if j != k])
+        if reach > arc.radius + REL_TOL * size:
+            raise ValueError(
+                f"arcs[{user_edge[k]}]: the circle of this outward arc (radius {arc.radius!r} m) does not contain the rest of the "
+                f"profile's hull (a point {reach - arc.radius:.3g} m outside), so the hull is not the intersection of planes and "
+                "this cylinder (allowed: outward arcs on the hull whose circle contains the whole hull, like the curved robot's; "
+                "a capsule or rounded corners would need several convex pieces)"
+            )
+    faces: list[_HullFace] = []
+    m = len(h)
+    e = next(i for i in range(m) if owner[h[i]] < 0)  # start at a vertex
+    h = h[e:] + h[:e]
+    i = 0
+    while i < m:
+        p, q = h[i], h[(i + 1) % m]
+        if not (owner[p] < 0 and p in on_hull and owner[q] == p):
+            faces.append(_HullFace(allp[p].copy(), allp[q].copy()))
+            i += 1
+            continue
+        k = p  # vertex k starts arc k
+        # the whole arc k from vertex k to vertex k+1: its interior samples come next
+        i += nsamp[k]
+        if h[i % m] != (k + 1) % nv:
+            raise AssertionError("an outward arc inside its own circle must lie on the hull from end to end")
+        faces.append(_HullFace(v[k].copy(), v[(k + 1) % nv].copy(), out_arcs[k]))
+    return faces
+
+
+def _face_order(faces: list[_HullFace]) -> list[tuple[str, _HullFace]]:
+    """Hull faces grouped by the body direction nearest their outward normal, in the order
+    +y, -y, +z, -z (the cuboid's), and by polar angle within a group."""
+    keyed = []
+    for f in faces:
+        n = f.normal
+        g = int(np.argmax([n @ np.array(d) for _, d in _GROUPS]))
+        ax = _GROUPS[g][1]
+        rel = (math.atan2(n[1], n[0]) - math.atan2(ax[1], ax[0]) + math.pi) % (2.0 * math.pi) - math.pi
+        keyed.append((g, rel, f))
+    keyed.sort(key=lambda t: (t[0], t[1]))
+    return [(_GROUPS[g][0], f) for g, _, f in keyed]
+
+
+def _aluminum_robot_ipm() -> np.ndarray:
+    length, width, height = ALUMINUM_ROBOT_LWH_M
+    return np.diag([length**2 + height**2, width**2 + height**2, width**2 + length**2]) / 12.0
+
+
+def extruded(
+    profile: Any,
+    thickness: float,
+    *,
+    arcs: Mapping[int, float] | None = None,
+    name: str = "extruded",
+    mass_from: str = "profile",
+    arc_tol: float = ARC_TOL_M,
+) -> Shape:
+    """A robot made by extruding a 2-D profile in the body y-z plane along x.
+
+    Parameters
+    ----------
+    profile : (N, 2) array_like of float, m
+        Vertices ``(y, z)`` of a simple polygon, convex or not, in either orientation,
+        N >= 3, each vertex once (the polygon closes itself). Any frame: the shape is
+        re-centred at the profile's area centroid (the CM at uniform density).
+    thickness : float, m
+        Extent along body x (the rotation axis of tumbling).
+    arcs : mapping int -> float, optional
+        Circular arcs replacing straight edges: ``{i: radius}`` replaces edge ``i`` (from
+        vertex ``i`` to vertex ``i+1``, index in the order given) with the minor circular
+        arc of ``|radius|`` (m) through both vertices; ``radius > 0`` bulges outward (adds
+        material), ``< 0`` bulges inward (removes it). ``|radius|`` must be at least half
+        the edge; half the edge gives a semicircle.
+    name : str
+        The shape's name (``simulate`` stores it; ``get_shape`` only knows the library's).
+    mass_from : {"profile", "aluminum_robot"}
+        ``"profile"``: inertia of the extruded profile at uniform density (exact polygon
+        and circular-segment integrals). ``"aluminum_robot"``: the aluminum robot's
+        inertia (its 0.8 x 0.4 x 0.1 mm cuboid), as the paper does for its shapes.
+    arc_tol : float, m
+        Largest sagitta between the sampled support points of a curved hull face (the
+        kernel's ``support_pad``).
+
+    Returns
+    -------
+    Shape
+        One convex piece: constraints ``+x``, ``-x`` (area: the profile's), then the hull
+        faces of the profile grouped by the body direction nearest their outward normal
+        (``+y``, ``-y``, ``+z``, ``-z``, the order of :func:`cuboid`) and by angle within a
+        group. A straight hull face is a plane; a hull face on an outward arc is a
+        ``cylinder_x`` constraint (line contact). Areas and line flags follow the rule in
+        the module docstring. ``cm_shift`` holds the centroid in the given coordinates.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument, the value and what is allowed: fewer than 3 vertices,
+        non-finite values, repeated vertices, (near-)zero area, a self-intersecting
+        outline (arcs included), arcs that do not fit their edge or turn the outline
+        inside out, an outward arc on the hull whose circle does not contain the whole
+        hull (see Notes), or any dimension outside 1e-6..1e-1 m (a profile in
+        micrometres).
+
+    Notes
+    -----
+    Contact with a plane only touches the convex hull (MODEL.md, "Shapes"): a non-convex
+    profile acts through its hull, and its notches never touch the plane. The mass
+    properties use the real (non-convex) profile: area, centroid and second moments are
+    Green's-theorem sums over the polygon in exact rational arithmetic, plus or minus the
+    closed-form moments of each arc's circular segment, rounded once.
+
+    A piece is the intersection of its constraints, and an arc's constraint is its whole
+    circle; so an outward arc on the hull is allowed only if its circle contains the whole
+    hull (the curved robot's outer arc, a bulging side of a bar). Rounded corners, a
+    capsule's ends or a bump in the middle of a side would make the intersection smaller
+    than the hull and are refused; they would need one piece per arc.
+    """
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name={name!r} is not allowed (allowed: a non-empty string)")
+    if mass_from not in MASS_MODELS:
+        raise ValueError(f"mass_from={mass_from!r} is not allowed (allowed: {', '.join(MASS_MODELS)})")
+    if (
+        isinstance(arc_tol, bool)
+        or not isinstance(arc_tol, (int, float, np.floating))
+        or not (math.isfinite(arc_tol) and 0.0 < arc_tol <= 1e-6)
+    ):
+        raise ValueError(f"arc_tol={arc_tol!r} is not allowed (allowed: a finite sagitta in metres, 0 < arc_tol <= 1e-6)")
+    v = _check_profile(profile)
+    thick = _check_dim("thickness", thickness)
+    radii = _check_arcs(arcs, v)
+    n = len(v)
+    user_edge = {k: k for k in range(n)}  # edge index here -> as given (for messages)
+    if 0.5 * math.fsum(_cross(v, np.roll(v, -1, axis=0))) < 0:  # make it CCW, vertex 0 first
+        v = np.roll(v[::-1], 1, axis=0)
+        radii = {n - 1 - k: r for k, r in radii.items()}
+        user_edge = {n - 1 - k: k for k in range(n)}
+    arc_geo = {k: _make_arc(v[k], v[(k + 1) % n], r) for k, r in radii.items()}
+    outline = _outline(v, arc_geo, OUTLINE_STEP_RAD)
+    hit = _self_intersection(outline[:-1]) if radii else None
+    if hit is not None:
+        raise ValueError(
+            f"profile is self-intersecting with the arcs={dict(arcs or {})!r}: its outline near {outline[hit[0]].tolist()} and "
+            f"{outline[hit[1]].tolist()} crosses or touches itself (allowed: arcs that keep the outline simple)"
+        )
+
+    # centroid and moments about it, exactly (so that a rectangle gives cuboid()'s bits)
+    mo = _moments(v, arc_geo)
+    area_q = mo[0]
+    if not float(area_q) > REL_TOL * float(np.ptp(outline, axis=0).max()) ** 2:
+        raise ValueError(
+            f"profile with the arcs={dict(arcs or {})!r} has area {float(area_q)!r} m^2: an inward arc that swallows the polygon "
+            "turns the outline inside out (allowed: arcs that leave a positive area)"
+        )
+    cy, cz = mo[1] / area_q, mo[2] / area_q
+    # squared lengths of the equivalent rectangle: 12 S / A (L^2 and H^2 for a cuboid)
+    ly2 = float(12 * (mo[3] - area_q * cy * cy) / area_q)
+    lz2 = float(12 * (mo[4] - area_q * cz * cz) / area_q)
+    syz = float((mo[5] - area_q * cy * cz) / area_q)
+    area = float(area_q)
+    cm = np.array([float(cy), float(cz)])
+    v = v - cm
+    arc_geo = {k: replace(a, centre=a.centre - cm) for k, a in arc_geo.items()}
+    outline = outline - cm
+    if mass_from == "profile":
+        ipm = np.array(
+            [[(ly2 + lz2) / 12.0, 0.0, 0.0], [0.0, (thick**2 + lz2) / 12.0, 0.0 - syz], [0.0, 0.0 - syz, (thick**2 + ly2) / 12.0]]
+        )
+    else:
+        ipm = _aluminum_robot_ipm()
+
+    # hull of the profile: constraints, areas, support points
+    size = float(np.ptp(v, axis=0).max())
+    tol = REL_TOL * size
+    min_r = min((a.radius for a in arc_geo.values() if a.sign > 0), default=1.0)
+    step = 2.0 * math.acos(max(-1.0, 1.0 - arc_tol / min_r)) if arc_geo else 1.0
+    faces = _hull_faces(v, arc_geo, step, user_edge)
+    straight = [(v[i], v[(i + 1) % n]) for i in range(n) if i not in arc_geo]
+    hx = thick / 2.0
+    cons = [
+        Constraint("plane", (1.0, 0.0, 0.0, hx), area, label="+x side"),
+        Constraint("plane", (-1.0, 0.0, 0.0, hx), area, label="-x side"),
+    ]
+    ordered = _face_order(faces)
+    counts: dict[str, int] = {}
+    for g, _ in ordered:
+        counts[g] = counts.get(g, 0) + 1
+    seen: dict[str, int] = {}
+    pad = 0.0
+    sup: list[np.ndarray] = []
+    for g, f in ordered:
+        seen[g] = seen.get(g, 0) + 1
+        tag = f" #{seen[g]}" if counts[g] > 1 else ""
+        if f.arc is not None:
+            a = f.arc
+            cons.append(
+                Constraint("cylinder_x", (float(a.centre[0]), float(a.centre[1]), a.radius, 0.0), f.length * thick, True, f"{g} arc{tag}")
+            )
+            k = max(2, math.ceil((a.th1 - a.th0) / step))  # as in _hull_faces
+            sup.append(a.points(k)[1:-1])
+            pad = max(pad, a.radius * (1.0 - math.cos(0.5 * (a.th1 - a.th0) / k)) * (1.0 + 1e-6))
+        else:
+            nrm = f.normal
+            d = float(np.max(v @ nrm))  # through p0, p1 and any near-collinear vertex the hull merged
+            t = (f.p1 - f.p0) / f.length
+            real = 0.0
+            for a0, a1 in straight:
+                if abs(float(nrm @ a0) - d) <= tol and abs(float(nrm @ a1) - d) <= tol:
+                    s0, s1 = sorted((float(t @ (a0 - f.p0)), float(t @ (a1 - f.p0))))
+                    real += max(0.0, min(s1, f.length) - max(s0, 0.0))
+            if real > tol:
+                cons.append(Constraint("plane", (0.0, float(nrm[0]), float(nrm[1]), d), real * thick, False, f"{g} face{tag}"))
+            else:
+                cons.append(Constraint("plane", (0.0, float(nrm[0]), float(nrm[1]), d), f.length * thick, True, f"{g} bridge{tag}"))
+        sup.append(f.p0[None, :])
+    yz = np.concatenate(sup)
+    pts3 = np.concatenate([np.column_stack([np.full(len(yz), s * hx), yz]) for s in (-1.0, 1.0)])
+    pts3 = pts3[np.lexsort((pts3[:, 2], pts3[:, 1], pts3[:, 0]))]
+    perimeter = math.fsum(f.length for f in faces)
+    piece = Piece(tuple(cons), np.ascontiguousarray(pts3), pad)
+    return Shape(name, (piece,), outline, thick, perimeter, ipm, mass_from, area, (float(cm[0]), float(cm[1])))
+
+
 def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6) -> Shape:
     """The paper's cuboid robot (MODEL.md "Shapes"): L (y) x W (x) x H (z), in m.
 
     One piece with six half-spaces, all real faces: the big faces ``+-z`` adhere with
-    ``L W``, the sides ``+-x`` with ``L H``, the ends ``+-y`` with ``W H``.
+    ``L W``, the sides ``+-x`` with ``L H``, the ends ``+-y`` with ``W H``. Written out in
+    closed form (``extruded`` of its rectangle gives the same constraints, areas and
+    inertia; the tests check that).
     """
     for nm, v in (("length", length), ("width", width), ("height", height)):
         if not (np.isfinite(v) and 1e-6 <= v <= 1e-1):
@@ -139,13 +784,157 @@ def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6
     verts = np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     outline = np.array([[-hy, -hz], [hy, -hz], [hy, hz], [-hy, hz], [-hy, -hz]])
     ipm = np.diag([length**2 + height**2, width**2 + height**2, width**2 + length**2]) / 12.0
-    return Shape("cuboid", (Piece(cons, verts),), outline, width, 2 * (length + height), ipm)
+    return Shape("cuboid", (Piece(cons, verts),), outline, width, 2 * (length + height), ipm, "profile", length * height)
 
 
-SHAPES = {"cuboid": cuboid}
+def _relabel(shape: Shape, labels: dict[str, str]) -> Shape:
+    """Replace generic face labels of a one-piece shape by descriptive ones."""
+    (piece,) = shape.pieces
+    cons = tuple(replace(c, label=labels.get(c.label, c.label)) for c in piece.constraints)
+    return replace(shape, pieces=(replace(piece, constraints=cons),))
+
+
+def spiked(
+    length: float = 800e-6,
+    bar_height: float = 150e-6,
+    spike_base: float = 200e-6,
+    apex_z: float = 325e-6,
+    thickness: float = 300e-6,
+    *,
+    mass_from: str = "aluminum_robot",
+) -> Shape:
+    """Spiked robot (MODEL.md "Shapes"): a bar ``length x bar_height`` with one triangular
+    spike on each long side at mid-length (base ``spike_base``, apex at ``z = +-apex_z``),
+    extruded by ``thickness`` (m). Inertia: see ``mass_from`` in :func:`extruded` (default:
+    the aluminum robot's, as in the paper).
+
+    Hull faces (defaults; normals in body (y, z); areas in um^2):
+
+    ==========================  ===================  ========  ====================
+    face                        outward normal       area      contact
+    ==========================  ===================  ========  ====================
+    +x side, -x side            (+-1 along x)        170000    real profile
+    +y end, -y end              (+-1, 0)             45000     real, 150 x 300
+    +z flank +y, +z flank -y    (+-0.530, 0.848)     141510    line: end corner to apex
+    -z flank +y, -z flank -y    (+-0.530, -0.848)    141510    line: end corner to apex
+    ==========================  ===================  ========  ====================
+
+    Hull perimeter 2186.8 um. The robot starts standing on its +z spike apex.
+    """
+    for nm, val in (("length", length), ("bar_height", bar_height), ("spike_base", spike_base), ("apex_z", apex_z)):
+        _check_dim(nm, val)
+    if not spike_base < length:
+        raise ValueError(f"spike_base={spike_base!r} is not allowed (allowed: < length = {length!r} m)")
+    if not apex_z > bar_height / 2:
+        raise ValueError(f"apex_z={apex_z!r} is not allowed (allowed: > bar_height / 2 = {bar_height / 2!r} m)")
+    hy, hz, hb = length / 2, bar_height / 2, spike_base / 2
+    prof = [(-hy, -hz), (-hb, -hz), (0.0, -apex_z), (hb, -hz), (hy, -hz), (hy, hz), (hb, hz), (0.0, apex_z), (-hb, hz), (-hy, hz)]
+    shp = extruded(prof, thickness, name="spiked", mass_from=mass_from)
+    labels = {"+y face": "+y end", "-y face": "-y end", "+z bridge #1": "+z flank +y", "+z bridge #2": "+z flank -y"}
+    labels |= {"-z bridge #1": "-z flank -y", "-z bridge #2": "-z flank +y"}
+    return _relabel(shp, labels)
+
+
+def spiked_ends(
+    length: float = 800e-6,
+    bar_height: float = 150e-6,
+    spike_base: float = 100e-6,
+    spike_height: float = 125e-6,
+    thickness: float = 300e-6,
+    *,
+    mass_from: str = "aluminum_robot",
+) -> Shape:
+    """Spiked-ends robot (MODEL.md "Shapes"): a bar ``length x bar_height`` with four
+    triangular corner spikes (base ``spike_base`` flush with each end, height
+    ``spike_height``, apex above the middle of the base), extruded by ``thickness`` (m).
+    Inertia: see ``mass_from`` in :func:`extruded` (default: the aluminum robot's).
+
+    Hull faces (defaults; normals in body (y, z); areas in um^2):
+
+    ========================  =====================  ========  =========================
+    face                      outward normal         area      contact
+    ========================  =====================  ========  =========================
+    +x side, -x side          (+-1 along x)          145000    real profile
+    +y end, -y end            (+-1, 0)               45000     real, 150 x 300
+    four spike flanks         (+-0.928, +-0.371)     40389     real, 134.6 x 300
+    +z bridge, -z bridge      (0, +-1)               210000    line: apex to apex (700)
+    ========================  =====================  ========  =========================
+
+    Hull perimeter 2238.5 um. The robot starts lying on its +z bridge (two apex lines).
+    """
+    for nm, val in (("length", length), ("bar_height", bar_height), ("spike_base", spike_base), ("spike_height", spike_height)):
+        _check_dim(nm, val)
+    if not spike_base < length / 2:
+        raise ValueError(f"spike_base={spike_base!r} is not allowed (allowed: < length / 2 = {length / 2!r} m)")
+    hy, hz, b = length / 2, bar_height / 2, spike_base
+    az, ay = hz + spike_height, hy - b / 2
+    prof = [
+        (-hy, -hz),
+        (-ay, -az),
+        (-hy + b, -hz),
+        (hy - b, -hz),
+        (ay, -az),
+        (hy, -hz),
+        (hy, hz),
+        (ay, az),
+        (hy - b, hz),
+        (-hy + b, hz),
+        (-ay, az),
+        (-hy, hz),
+    ]
+    shp = extruded(prof, thickness, name="spiked_ends", mass_from=mass_from)
+    labels = {"+y face #1": "+y flank -z", "+y face #2": "+y end", "+y face #3": "+y flank +z"}
+    labels |= {"-y face #1": "-y flank +z", "-y face #2": "-y end", "-y face #3": "-y flank -z"}
+    return _relabel(shp, labels)
+
+
+def curved(
+    r_outer: float = 1250e-6,
+    r_inner: float = 1100e-6,
+    half_angle_deg: float = 25.0,
+    thickness: float = 400e-6,
+    *,
+    mass_from: str = "aluminum_robot",
+) -> Shape:
+    """Curved robot (MODEL.md "Shapes"): an annular sector of radii ``r_outer`` and
+    ``r_inner`` (m) and half-angle ``half_angle_deg``, extruded by ``thickness``, its
+    centre of curvature on the body z axis below the CM, so that the outer arc bulges
+    toward +z and the robot starts lying on it. Inertia: see ``mass_from`` in
+    :func:`extruded` (default: the aluminum robot's).
+
+    Hull faces (defaults; normals in body (y, z); areas in um^2):
+
+    ======================  ======================  ========  ============================
+    face                    outward normal          area      contact
+    ======================  ======================  ========  ============================
+    +x side, -x side        (+-1 along x)           153807    real profile
+    +y end, -y end          (+-0.906, -0.423)       60000     real radial faces, 150 x 400
+    +z arc (cylinder_x)     radial, (0, 1) at top   436332    line: real outer arc
+    -z chord                (0, -1)                 371904    line: chord of the inner arc
+    ======================  ======================  ========  ============================
+
+    The centre of curvature is at body ``z = -1139.6`` um (``cm_shift``); hull perimeter
+    2320.6 um (arc 1090.8 + chord 929.8 + ends 2 x 150).
+    """
+    for nm, val in (("r_outer", r_outer), ("r_inner", r_inner)):
+        _check_dim(nm, val)
+    if not r_inner < r_outer:
+        raise ValueError(f"r_inner={r_inner!r} is not allowed (allowed: < r_outer = {r_outer!r} m)")
+    if isinstance(half_angle_deg, bool) or not isinstance(half_angle_deg, (int, float)) or not 0.0 < half_angle_deg < 90.0:
+        raise ValueError(f"half_angle_deg={half_angle_deg!r} is not allowed (allowed: 0 < half_angle_deg < 90)")
+    a = math.radians(half_angle_deg)
+    s, c = math.sin(a), math.cos(a)
+    # centre of curvature at the origin here; extruded re-centres at the centroid
+    prof = [(-r_inner * s, r_inner * c), (r_inner * s, r_inner * c), (r_outer * s, r_outer * c), (-r_outer * s, r_outer * c)]
+    shp = extruded(prof, thickness, arcs={0: -r_inner, 2: r_outer}, name="curved", mass_from=mass_from)
+    return _relabel(shp, {"+y face": "+y end", "-y face": "-y end", "+z arc": "+z outer arc", "-z bridge": "-z inner chord"})
+
+
+SHAPES: dict[str, Callable[[], Shape]] = {"cuboid": cuboid, "spiked": spiked, "spiked_ends": spiked_ends, "curved": curved}
 
 
 def get_shape(shape: str | Shape) -> Shape:
+    """A shape by name (its defaults) from :data:`SHAPES`, or the Shape itself."""
     if isinstance(shape, Shape):
         return shape
     if shape not in SHAPES:
