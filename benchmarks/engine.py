@@ -81,7 +81,9 @@ def main() -> int:
     t_eng = statistics.median(engine(cfg_d) for _ in range(a.repeats))
     print(f"fixed study: {n} runs (cuboid, aluminum, 0/15/30 deg, 1 Hz, 2 periods); medians of {a.repeats}")
     print(f"  bare batch kernel, in-process : {t_bare:7.2f} s  ({n / t_bare:.2f} runs/s, {1e3 * t_bare / n:.0f} ms/run)")
-    print(f"  engine, in-process            : {t_eng:7.2f} s  overhead per run {100 * (t_eng - t_bare) / t_bare:+.1f}% ({1e3 * (t_eng - t_bare) / n:+.1f} ms)")
+    print(
+        f"  engine, in-process            : {t_eng:7.2f} s  overhead per run {100 * (t_eng - t_bare) / t_bare:+.1f}% ({1e3 * (t_eng - t_bare) / n:+.1f} ms)"
+    )
     rates = {}
     for w in (1, 2):
         client = local_client(w)

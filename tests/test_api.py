@@ -38,8 +38,24 @@ def test_bad_input_is_a_clear_error(kwargs: dict, names: list[str]) -> None:
 
 def test_presets_are_the_paper_tables() -> None:
     p, a = PRESETS["paper"], PRESETS["aluminum"]
-    assert (p.mass, p.F_elect, p.mu, p.offset_deg, p.V_m, p.magnetization, p.adhesion_C) == (1.6071e-7, 3.2022e-6, 0.3, 27.0, 2.9e-11, 15000.0, 3.7148)
-    assert (a.mass, a.F_elect, a.mu, a.offset_deg, a.V_m, a.magnetization, a.adhesion_C) == (6.94e-8, 0.0, 0.54, 0.0, 3.2e-11, 51835.0, 26.1771)
+    assert (p.mass, p.F_elect, p.mu, p.offset_deg, p.V_m, p.magnetization, p.adhesion_C) == (
+        1.6071e-7,
+        3.2022e-6,
+        0.3,
+        27.0,
+        2.9e-11,
+        15000.0,
+        3.7148,
+    )
+    assert (a.mass, a.F_elect, a.mu, a.offset_deg, a.V_m, a.magnetization, a.adhesion_C) == (
+        6.94e-8,
+        0.0,
+        0.54,
+        0.0,
+        3.2e-11,
+        51835.0,
+        26.1771,
+    )
     with pytest.raises(Exception):
         p.mu = 1.0  # type: ignore[misc]
 
@@ -54,7 +70,20 @@ def test_magnetisation_direction_follows_model() -> None:
 
 def test_dataset_schema_and_attrs() -> None:
     ds = tumblemc.simulate(duration_s=0.01, mu=0.35)
-    for name in ["progress", "position", "quaternion", "velocity", "omega", "normal_force", "adhesion_force", "contact_area", "contact_mode", "slip_speed", "newton_iterations", "residual"]:
+    for name in [
+        "progress",
+        "position",
+        "quaternion",
+        "velocity",
+        "omega",
+        "normal_force",
+        "adhesion_force",
+        "contact_area",
+        "contact_mode",
+        "slip_speed",
+        "newton_iterations",
+        "residual",
+    ]:
         assert name in ds, name
     for name, var in ds.data_vars.items():
         assert "units" in var.attrs and "long_name" in var.attrs, name

@@ -32,7 +32,9 @@ def test_aluminum_fails_45() -> None:
     assert s["climbed"] is False
 
 
-@pytest.mark.xfail(strict=True, reason="model as specified: mu=0.54 < tan 30 deg and ~0 adhesion in line contact -> slides (docs/validation.md)")
+@pytest.mark.xfail(
+    strict=True, reason="model as specified: mu=0.54 < tan 30 deg and ~0 adhesion in line contact -> slides (docs/validation.md)"
+)
 def test_aluminum_climbs_30() -> None:
     _, s = _summary(preset="aluminum", incline_deg=30.0)
     assert s["climbed"] is True

@@ -92,7 +92,17 @@ def test_file_schema(reference: Path) -> None:
             assert "long_name" in var.attrs, name
             if var.dtype.kind in "fiu" and name not in ("quantile",):
                 assert "units" in var.attrs, name
-        for key in ("Conventions", "history", "source", "date_created", "tumblemc_version", "git_sha", "config_json", "config_hash", "seed"):
+        for key in (
+            "Conventions",
+            "history",
+            "source",
+            "date_created",
+            "tumblemc_version",
+            "git_sha",
+            "config_json",
+            "config_hash",
+            "seed",
+        ):
             assert key in ds.attrs, key
     assert runs["status"].attrs["flag_meanings"] == "ok failed_steps nonfinite error"
     assert maps["p_success"].attrs["ancillary_variables"].startswith("p_success_lower")
@@ -138,7 +148,9 @@ def test_config_change_refused_then_fresh(reference: Path, tmp_path: Path) -> No
 
 def _cli(args: list[str], **kw: Any) -> subprocess.Popen[str]:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.Popen([sys.executable, "-m", "tumblemc", *args], env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
+    return subprocess.Popen(
+        [sys.executable, "-m", "tumblemc", *args], env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw
+    )
 
 
 @pytest.mark.slow

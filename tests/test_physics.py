@@ -86,7 +86,14 @@ def test_no_energy_gain_with_field_off() -> None:
     from tumblemc.shapes import cuboid
 
     ds = tumblemc.simulate(
-        preset="paper", field_mT=0.0, duration_s=0.1, lift_m=2e-4, v0=(0.0, 5e-3, 0.0), omega0=(30.0, 5.0, 10.0), F_elect=0.0, adhesion_C=0.0
+        preset="paper",
+        field_mT=0.0,
+        duration_s=0.1,
+        lift_m=2e-4,
+        v0=(0.0, 5e-3, 0.0),
+        omega0=(30.0, 5.0, 10.0),
+        F_elect=0.0,
+        adhesion_C=0.0,
     )
     e = _energy(ds, cuboid().inertia_per_mass)
     gain = np.diff(e).max()

@@ -76,7 +76,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     for shape in shapes:
         for name, kw in SCENARIOS:
             r = measure(dict(kw, shape=shape), dur, reps)
-            print(f"{shape:12s} {name:22s} {r['steps']:7d} {r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}")
+            print(
+                f"{shape:12s} {name:22s} {r['steps']:7d} {r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}"
+            )
     if not (a.quick or a.no_compile):
         with tempfile.TemporaryDirectory() as d:
             cold = compile_time(d)

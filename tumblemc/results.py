@@ -27,7 +27,10 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
     "ecp": {"units": "m", "long_name": "equivalent contact point on the robot (world frame; NaN in flight)"},
     "newton_iterations": {"units": "1", "long_name": "Newton iterations in the step (free-flight prediction included)"},
     "residual": {"units": "1", "long_name": "final max-norm of the scaled residual in the step"},
-    "fallbacks": {"units": "1", "long_name": "damped (Levenberg-Marquardt) or gradient Newton steps plus extra solve strategies in the step"},
+    "fallbacks": {
+        "units": "1",
+        "long_name": "damped (Levenberg-Marquardt) or gradient Newton steps plus extra solve strategies in the step",
+    },
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt) in the step"},
     "penetration": {"units": "m", "long_name": "depth of the robot below the plane at the end of the step"},
     "failed": {"units": "1", "long_name": "steps whose solve did not converge at the smallest sub-step"},

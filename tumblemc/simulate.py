@@ -189,7 +189,24 @@ def prepare(
             raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
     state0[7:10] = np.asarray(v0, dtype=float) / u.velocity
     state0[10:13] = np.asarray(omega0, dtype=float) * u.time
-    return RunSpec(shp, params, incline_deg, field_mT, freq_hz, duration_s, dt, torque, u, shp.geometry(), prm, state0, n_steps, record_every, solver, lift_m)
+    return RunSpec(
+        shp,
+        params,
+        incline_deg,
+        field_mT,
+        freq_hz,
+        duration_s,
+        dt,
+        torque,
+        u,
+        shp.geometry(),
+        prm,
+        state0,
+        n_steps,
+        record_every,
+        solver,
+        lift_m,
+    )
 
 
 def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = None) -> tuple[np.ndarray, int, int]:
@@ -203,7 +220,22 @@ def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = Non
     resting = spec.lift_m == 0.0
     area0 = spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0
     status, failed = run(
-        spec.geo, spec.prm, state, 0.0, spec.h, spec.n_steps, spec.record_every, spec.solver.as_array(), rec, ws, ws6, z, np.zeros(6), np.zeros(n), area0, resting
+        spec.geo,
+        spec.prm,
+        state,
+        0.0,
+        spec.h,
+        spec.n_steps,
+        spec.record_every,
+        spec.solver.as_array(),
+        rec,
+        ws,
+        ws6,
+        z,
+        np.zeros(6),
+        np.zeros(n),
+        area0,
+        resting,
     )
     return rec, int(status), int(failed)
 
@@ -326,7 +358,22 @@ def simulate(
         Dimension ``time``; variables and units in :mod:`tumblemc.results`; attrs hold
         every parameter in SI, the options and the package version.
     """
-    spec = prepare(shape, preset, incline_deg, field_mT, freq_hz, duration_s, dt, torque=torque, record_every=record_every, solver=solver, lift_m=lift_m, v0=v0, omega0=omega0, **overrides)
+    spec = prepare(
+        shape,
+        preset,
+        incline_deg,
+        field_mT,
+        freq_hz,
+        duration_s,
+        dt,
+        torque=torque,
+        record_every=record_every,
+        solver=solver,
+        lift_m=lift_m,
+        v0=v0,
+        omega0=omega0,
+        **overrides,
+    )
     rec, status, failed = run_spec(spec)
     return to_dataset(spec, rec, status, failed)
 

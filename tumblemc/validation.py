@@ -90,7 +90,14 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         ds, s, wall = _run(preset="paper", incline_deg=float(th))
         want = th <= 45
         ok = s["climbed"] == want
-        rep.add("C1", f"paper, {th} deg, 20 mT, 1 Hz", "progress ratio (climbed if >= 0.5)", f"{s['progress_ratio']:.3f}", "climbs" if want else "fails", "pass" if ok else "FAIL")
+        rep.add(
+            "C1",
+            f"paper, {th} deg, 20 mT, 1 Hz",
+            "progress ratio (climbed if >= 0.5)",
+            f"{s['progress_ratio']:.3f}",
+            "climbs" if want else "fails",
+            "pass" if ok else "FAIL",
+        )
         _robust(rep, f"paper {th} deg", s, wall)
         ax.plot(ds.time, ds.progress * 1e3, label=f"{th} deg")
     ax.set(xlabel="time (s)", ylabel="uphill progress (mm)", title="paper preset, 20 mT, 1 Hz", ylim=(-3, 4))
@@ -102,16 +109,40 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         ok = s["climbed"] == want
         note = ""
         if not ok:
-            note = "mu = 0.54 < tan(30 deg) = 0.577: in point/line contact (adhesion 5% of a face) the robot slides; see sensitivity rows S1"
-        rep.add("C2", f"aluminum, {th} deg, 20 mT, 1 Hz", "progress ratio", f"{s['progress_ratio']:.3f}", "climbs" if want else "fails", "pass" if ok else "FAIL", note)
+            note = (
+                "mu = 0.54 < tan(30 deg) = 0.577: in point/line contact (adhesion 5% of a face) the robot slides; see sensitivity rows S1"
+            )
+        rep.add(
+            "C2",
+            f"aluminum, {th} deg, 20 mT, 1 Hz",
+            "progress ratio",
+            f"{s['progress_ratio']:.3f}",
+            "climbs" if want else "fails",
+            "pass" if ok else "FAIL",
+            note,
+        )
         _robust(rep, f"aluminum {th} deg", s, wall)
 
     # sensitivity of the aluminum 30 deg verdict
     for frac in (0.05, 0.25, 0.5, 1.0):
         _, s, _ = _run(preset="aluminum", incline_deg=30.0, line_contact_fraction=frac)
-        rep.add("S1", f"aluminum, 30 deg, line_contact_fraction={frac}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report")
+        rep.add(
+            "S1",
+            f"aluminum, 30 deg, line_contact_fraction={frac}",
+            "progress ratio",
+            f"{s['progress_ratio']:.3f}",
+            "(sensitivity)",
+            "report",
+        )
     _, s, _ = _run(preset="aluminum", incline_deg=30.0, torque="end", dt=5e-4)
-    rep.add("S1", "aluminum, 30 deg, paper numerics (torque=end, dt=5e-4)", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report")
+    rep.add(
+        "S1",
+        "aluminum, 30 deg, paper numerics (torque=end, dt=5e-4)",
+        "progress ratio",
+        f"{s['progress_ratio']:.3f}",
+        "(sensitivity)",
+        "report",
+    )
 
     # flat paper speed and frequency sweep
     freqs = (1, 2, 4, 6, 8, 10)
@@ -123,9 +154,23 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         speeds.append(s["mean_speed"])
         if f == 1:
             ok = abs(s["progress_ratio"] - 1.0) <= 0.10
-            rep.add("C3", "flat paper, 1 Hz", "mean speed / 2(L+H)f", f"{s['progress_ratio']:.3f} ({s['mean_speed'] * 1e3:.3f} mm/s)", "within 10% of 1", "pass" if ok else "FAIL")
+            rep.add(
+                "C3",
+                "flat paper, 1 Hz",
+                "mean speed / 2(L+H)f",
+                f"{s['progress_ratio']:.3f} ({s['mean_speed'] * 1e3:.3f} mm/s)",
+                "within 10% of 1",
+                "pass" if ok else "FAIL",
+            )
         gap = s["ideal_speed"] - s["mean_speed"]
-        rep.add("C4", f"flat paper, {f} Hz", "ratio to ideal; mean slip speed; ideal - speed", f"{s['progress_ratio']:.3f}; {s['mean_slip_speed'] * 1e3:.3f} mm/s; {gap * 1e3:.3f} mm/s", "falls below 1 as f grows, by about the slip", "report")
+        rep.add(
+            "C4",
+            f"flat paper, {f} Hz",
+            "ratio to ideal; mean slip speed; ideal - speed",
+            f"{s['progress_ratio']:.3f}; {s['mean_slip_speed'] * 1e3:.3f} mm/s; {gap * 1e3:.3f} mm/s",
+            "falls below 1 as f grows, by about the slip",
+            "report",
+        )
         _robust(rep, f"flat paper {f} Hz", s, wall)
     falls = ratios[-1] < ratios[0] - 0.02
     rep.add(
@@ -140,8 +185,17 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         else "the model skids forward while it pivots on an edge (line contact, adhesion ~0), so the ratio exceeds 1 as f grows: the opposite sign of the paper's claim; the paper's numerics damp the skid (rows S2)",
     )
     for f in (1, 4, 10):
-        _, s, _ = _run(periods=2.0 if quick else max(2.0, f * 1.0), preset="paper", incline_deg=0.0, freq_hz=float(f), torque="end", dt=5e-4)
-        rep.add("S2", f"flat paper, {f} Hz, paper numerics (torque=end, dt=5e-4)", "ratio; mean slip speed", f"{s['progress_ratio']:.3f}; {s['mean_slip_speed'] * 1e3:.3f} mm/s", "(sensitivity)", "report")
+        _, s, _ = _run(
+            periods=2.0 if quick else max(2.0, f * 1.0), preset="paper", incline_deg=0.0, freq_hz=float(f), torque="end", dt=5e-4
+        )
+        rep.add(
+            "S2",
+            f"flat paper, {f} Hz, paper numerics (torque=end, dt=5e-4)",
+            "ratio; mean slip speed",
+            f"{s['progress_ratio']:.3f}; {s['mean_slip_speed'] * 1e3:.3f} mm/s",
+            "(sensitivity)",
+            "report",
+        )
     fig = Figure(figsize=(7, 4))
     ax = fig.add_subplot()
     fa = np.array(freqs, dtype=float)
@@ -179,6 +233,64 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         ax.text(float(ds.time[-1]), v * 1e6, lab, va="bottom", ha="right", fontsize=8)
     ax.set(xlabel="time (s)", ylabel="adhesion force (uN)", title="paper, 45 deg incline, 20 mT, 1 Hz")
     fig.savefig(figdir / "adhesion_45deg.png", dpi=120)
+
+
+SHAPE_ORDER = ("cuboid", "spiked", "spiked_ends", "curved")
+#: paper (MODEL.md "What the paper reports"): aluminum, 20 mT, 1 Hz
+SHAPE_CLIMBS = {20: dict.fromkeys(SHAPE_ORDER, True), 30: {"cuboid": True, "spiked": True, "spiked_ends": True, "curved": False}, 45: dict.fromkeys(SHAPE_ORDER, False)}
+
+
+def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
+    """The paper's shape comparison: speeds at 20 mT, 10 Hz on paper and aluminum (curved
+    fastest, cuboid slowest) and the aluminum climb table at 20/30/45 deg, 1 Hz."""
+    periods = 4.0 if quick else 10.0
+    speeds: dict[str, dict[str, float]] = {}
+    for preset in ("paper", "aluminum"):
+        speeds[preset] = {}
+        for shape in SHAPE_ORDER:
+            _, s, wall = _run(periods=periods, shape=shape, preset=preset, incline_deg=0.0, freq_hz=10.0)
+            speeds[preset][shape] = s["mean_speed"]
+            rep.add(
+                "C6",
+                f"{shape}, flat {preset}, 20 mT, 10 Hz",
+                "mean speed; ratio to hull perimeter x f; slip speed",
+                f"{s['mean_speed'] * 1e3:.3f} mm/s; {s['progress_ratio']:.3f}; {s['mean_slip_speed'] * 1e3:.3f} mm/s",
+                "(report)",
+                "report",
+            )
+            _robust(rep, f"{shape} flat {preset} 10 Hz", s, wall)
+        order = sorted(SHAPE_ORDER, key=lambda k: -speeds[preset][k])
+        ok = order[0] == "curved" and order[-1] == "cuboid"
+        rep.add("C6", f"shapes, flat {preset}, 20 mT, 10 Hz", "order of mean speed, fastest first", " > ".join(order), "curved fastest, cuboid slowest", "pass" if ok else "FAIL")
+    fig = Figure(figsize=(8, 4))
+    ax = fig.add_subplot()
+    x = np.arange(len(SHAPE_ORDER))
+    for j, preset in enumerate(("paper", "aluminum")):
+        ax.bar(x + 0.38 * (j - 0.5), [speeds[preset][k] * 1e3 for k in SHAPE_ORDER], 0.38, label=preset)
+    from .shapes import get_shape
+
+    ax.plot(x, [get_shape(k).hull_perimeter * 10.0 * 1e3 for k in SHAPE_ORDER], "k_", ms=30, mew=2, label="no slip (hull perimeter x f)")
+    ax.set(xticks=x, xticklabels=SHAPE_ORDER, ylabel="mean speed (mm/s)", title="flat substrate, 20 mT, 10 Hz")
+    ax.legend(fontsize=8)
+    fig.savefig(figdir / "shape_speeds.png", dpi=120)
+
+    mismatched = []
+    for th, want in SHAPE_CLIMBS.items():
+        for shape in SHAPE_ORDER:
+            _, s, wall = _run(shape=shape, preset="aluminum", incline_deg=float(th))
+            ok = s["climbed"] == want[shape]
+            rep.add("C7", f"{shape}, aluminum, {th} deg, 20 mT, 1 Hz", "progress ratio (climbed if >= 0.5)", f"{s['progress_ratio']:.3f}", "climbs" if want[shape] else "fails", "pass" if ok else "FAIL")
+            _robust(rep, f"{shape} aluminum {th} deg", s, wall)
+            if not ok:
+                mismatched.append((shape, th))
+    # what decides a verdict that differs: the adhesion of line contact (MODEL.md), and friction
+    for shape, th in mismatched[: 2 if quick else None]:
+        for frac in (0.0, 0.25):
+            _, s, _ = _run(shape=shape, preset="aluminum", incline_deg=float(th), line_contact_fraction=frac)
+            rep.add("S3", f"{shape}, aluminum, {th} deg, line_contact_fraction={frac}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report")
+        for mu in (0.45, 0.65):
+            _, s, _ = _run(shape=shape, preset="aluminum", incline_deg=float(th), mu=mu)
+            rep.add("S3", f"{shape}, aluminum, {th} deg, mu={mu}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report")
 
 
 def convergence(quick: bool = False) -> list[dict[str, Any]]:
@@ -245,9 +357,21 @@ def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
         worst_pen = max(worst_pen, s["max_penetration"])
         fails += s["failed_steps"]
         yaw = float(np.abs(ds["omega"].values[:, 2]).max())
-        _robust(rep, f"non-planar {k}: axis {np.round(axis / np.linalg.norm(axis), 2).tolist()}, {ang:.1f} deg (max |w_z| {yaw:.1f} rad/s)", s, wall)
+        _robust(
+            rep,
+            f"non-planar {k}: axis {np.round(axis / np.linalg.norm(axis), 2).tolist()}, {ang:.1f} deg (max |w_z| {yaw:.1f} rad/s)",
+            s,
+            wall,
+        )
     ok = fails == 0 and worst_pen <= 1e-3 * _H
-    rep.add("R1", f"{n} runs, random tilt axes, offsets up to 30 deg (paper, flat, 1 Hz)", "failed steps; max penetration", f"{fails}; {worst_pen:.2e} m", "0; <= 1e-3 H = 1e-7 m", "pass" if ok else "FAIL")
+    rep.add(
+        "R1",
+        f"{n} runs, random tilt axes, offsets up to 30 deg (paper, flat, 1 Hz)",
+        "failed steps; max penetration",
+        f"{fails}; {worst_pen:.2e} m",
+        "0; <= 1e-3 H = 1e-7 m",
+        "pass" if ok else "FAIL",
+    )
 
 
 def _write_table(path: Path, rows: list[dict[str, Any]]) -> None:
@@ -279,14 +403,30 @@ def run_validation(out_dir: str | Path = "validation", quick: bool = False) -> i
     t0 = time.perf_counter()
     print("paper claims ...", flush=True)
     paper_claims(rep, figdir, quick=quick)
+    print("shape comparison ...", flush=True)
+    shape_claims(rep, figdir, quick=quick)
     print("non-planar robustness ...", flush=True)
     nonplanar(rep, n=4 if quick else 20)
     print("dt convergence ...", flush=True)
     table = convergence(quick=quick)
     best, per_case = default_dt(table, "start")
     best_end, per_case_end = default_dt(table, "end")
-    rep.add("N1", "dt convergence, torque=start", "largest dt matching the finest dt (verdict, ratio within 2%)", f"{best} (per case: {per_case})", f"default dt = {DEFAULT_DT}", "report")
-    rep.add("N1", "dt convergence, torque=end", "largest dt matching the finest dt (verdict, ratio within 2%)", f"{best_end} (per case: {per_case_end})", "paper used 5e-4", "report")
+    rep.add(
+        "N1",
+        "dt convergence, torque=start",
+        "largest dt matching the finest dt (verdict, ratio within 2%)",
+        f"{best} (per case: {per_case})",
+        f"default dt = {DEFAULT_DT}",
+        "report",
+    )
+    rep.add(
+        "N1",
+        "dt convergence, torque=end",
+        "largest dt matching the finest dt (verdict, ratio within 2%)",
+        f"{best_end} (per case: {per_case_end})",
+        "paper used 5e-4",
+        "report",
+    )
     _write_table(out / "claims", [vars(r) for r in rep.rows])
     _write_table(out / "convergence", table)
     _write_table(out / "robustness", rep.robustness)

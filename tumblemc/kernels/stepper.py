@@ -69,9 +69,7 @@ from .layout import (
 from .newton import Workspace, solve
 from .residual import residual
 
-Geometry = namedtuple(
-    "Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"]
-)
+Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
 Geometry.__doc__ = """Robot geometry in scaled body coordinates, as kernel arrays.
 
 ctype, cdata : int64[M], float64[M, 4]   convex constraints (see ``constraint_eval``)
@@ -472,7 +470,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 for kp in range(K):
                     mk = geo.pstart[kp + 1] - geo.pstart[kp]
                     if touching[kp] == 0:
-                        _landing_guess(z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
+                        _landing_guess(
+                            z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False
+                        )
                     off += B_FIXED + mk
                 # deterministic strategies (STRATEGY_*): the touching feature may change
                 # within the step (a face slapping down, an edge passing over, a vertex
@@ -513,7 +513,26 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
                             tolg = VERTEX_TOL if guess == 2 else (RESTART_TOL if guess == 1 else FACE_TOL)
-                            _landing_guess(z, off, mk, kp, tmp3, R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, tolg, guess == 1 and touching[kp] == 1)
+                            _landing_guess(
+                                z,
+                                off,
+                                mk,
+                                kp,
+                                tmp3,
+                                R,
+                                state[7:10],
+                                state[10:13],
+                                hc,
+                                sc,
+                                prm,
+                                geo,
+                                tmp,
+                                tmp2,
+                                gb,
+                                Hb,
+                                tolg,
+                                guess == 1 and touching[kp] == 1,
+                            )
                             off += B_FIXED + mk
                     smooth = STRATEGY_SMOOTH[attempt]
                     if smooth > 0.0:
