@@ -265,3 +265,41 @@ def test_worker_killed_mid_study_loses_and_duplicates_nothing(tmp_path: Path) ->
     assert res.runs.sizes["run"] == 12
     assert shards_at_kill and shards_at_kill[0] < 12, "the worker was not killed mid-study"
     assert_same_result(ref, out)
+
+
+def test_critical_incline_mode_brackets_and_checks(tmp_path: Path) -> None:
+    cfg = {
+        "name": "crit",
+        "mode": "critical_incline",
+        "shapes": ["cuboid"],
+        "presets": ["paper"],
+        "incline_deg": [0, 20, 40, 60],
+        "incline_range": {"min": 0, "max": 60},
+        "incline_tol": 4.0,
+        "field_mT": 20,
+        "freq_hz": 10,
+        "samples": 4,
+        "seed": 5,
+        "check": {"min_runs": 2, "dt_factor": 2},
+    }
+    res = run_study(cfg, out=tmp_path / "crit.nc", progress=False)
+    runs, maps = open_result(res.path)
+    crit, fail, cens = (runs[k].values for k in ("critical_incline_deg", "fails_at_deg", "censored"))
+    rows = [
+        {"preset": "paper", "field_mT": 20.0, "freq_hz": 10.0, **{k: float(runs[k].values[i]) for k in runs.attrs["uncertain"].split(",")}}
+        for i in range(4)
+    ]
+    grid = TimeGrid(dt=None)
+    for i in range(4):
+        assert runs["status"].values[i] == 0
+        if cens[i] == 0:  # bracketed: climbs at the lower end, fails at the upper, within tol
+            assert 0 < fail[i] - crit[i] <= 4.0
+            v = simulate_rows("cuboid", [dict(rows[i], incline_deg=float(crit[i])), dict(rows[i], incline_deg=float(fail[i]))], grid)
+            assert v["climbed"].tolist() == [1, 0]
+    # P(climb theta) is non-increasing in theta and lies in its interval
+    p = maps["p_success"].squeeze().values
+    assert np.all(np.diff(p) <= 1e-12)
+    assert runs.attrs["monotonicity_checked_samples"] == 2
+    assert 0.0 <= runs.attrs["monotonicity_disagreement_rate"] <= 1.0
+    assert runs["check_grid_climbed"].shape == (2, 4)
+    assert runs.attrs["simulations_total"] == int(runs["n_simulations"].sum())

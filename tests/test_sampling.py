@@ -129,7 +129,7 @@ BAD: list[tuple[str, dict[str, Any], str, list[str]]] = [
     ("bad sampler", _set("sampler", "halton"), "sampler", ["'halton'", "'sobol'"]),
     ("sampler typo", _set("sampler", "sobl"), "sampler", ["did you mean 'sobol'"]),
     ("bad ci", _set("ci", "wald"), "ci", ["'wald'", "'wilson'"]),
-    ("bad mode", _set("mode", "critical_incline"), "mode", ["'critical_incline'", "'grid'"]),
+    ("bad mode", _set("mode", "critical"), "mode", ["'critical'", "'grid'", "'critical_incline'"]),
     ("bad torque", _set("torque", "middle"), "torque", ["'middle'", "'start'"]),
     ("unknown shape", _set("shapes", ["cuboid", "sphere"]), "shapes[1]", ["'sphere'", "cuboid"]),
     ("unknown preset", _set("presets", ["glass"]), "presets[0]", ["'glass'", "paper"]),

@@ -185,6 +185,15 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("result", help="result netCDF")
     pl.add_argument("--out", default=None, help="output directory (default: next to the result, <name>_plots)")
 
+    cmp = ss.add_parser(
+        "compare",
+        help="critical-incline curve vs a grid map",
+        description="Compare a critical-incline study with a direct incline-grid study at the grid inclines.",
+    )
+    cmp.add_argument("critical", help="result netCDF of a mode = critical_incline study")
+    cmp.add_argument("grid", help="result netCDF of a grid study of the same shapes and substrates")
+    cmp.add_argument("--out", default=None, help="write the comparison table as CSV")
+
     what = "draw every shape's profile, hull faces and adhesion areas"
     sh = sub.add_parser("shapes", help=what, description=what[0].upper() + what[1:] + ".")
     sh.add_argument("--out", default="shapes.png", help="PNG path (default: shapes.png)")
@@ -265,6 +274,41 @@ def _cmd_study(args: argparse.Namespace) -> int:
         out_dir = Path(args.out) if args.out else res.with_name(res.stem + "_plots")
         for path in plot_study(runs, maps, out_dir):
             print(f"wrote {path}")
+        return EXIT_OK
+    if args.study_command == "compare":
+        from .critical import compare_with_grid
+        from .io import open_result
+
+        crit_runs, crit_maps = open_result(args.critical)
+        _, grid_maps = open_result(args.grid)
+        table = compare_with_grid(crit_maps, grid_maps).to_dataframe().reset_index()
+        cols = [
+            "shape",
+            "substrate",
+            "incline_deg",
+            "p_success_critical",
+            "p_success_lower_critical",
+            "p_success_upper_critical",
+            "p_success_grid",
+            "p_success_lower_grid",
+            "p_success_upper_grid",
+            "agree",
+        ]
+        table = table[[c for c in cols if c in table.columns]]
+        print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+        a = crit_runs.attrs
+        if "monotonicity_disagreement_rate" in a:
+            print(
+                f"monotonicity check: {a['monotonicity_checked_samples']} samples at {crit_runs.sizes.get('check_incline_deg', 0)} grid inclines; "
+                f"disagreement rate {a['monotonicity_disagreement_rate']:.3f}; non-monotone samples {a['monotonicity_nonmonotone_samples']}"
+            )
+        sims, grid_eq = int(a.get("simulations_total", 0)), int(a.get("simulations_grid_equivalent", 0))
+        if grid_eq:
+            print(f"simulations: {sims} for the critical curve vs {grid_eq} for the grid it replaces (ratio {sims / grid_eq:.2f})")
+        print(f"agree within the CI at {int(table['agree'].sum())} of {len(table)} grid inclines")
+        if args.out:
+            table.to_csv(args.out, index=False)
+            print(f"wrote {args.out}")
         return EXIT_OK
     if args.workers is not None and args.workers < 0:
         raise _UsageError(f"--workers {args.workers} is not allowed (allowed: 0 for in-process, or >= 1)")

@@ -39,6 +39,7 @@ import xarray as xr
 from . import __version__
 from .analysis import maps as make_maps
 from .batch import OUTCOMES, STATUS_FLAGS, TimeGrid, simulate_rows
+from .critical import CRITICAL_ATTRS, CRITICAL_OUTCOMES, bisect_rows, expand_to_grid, monotonicity_rows
 from .io import ShardStore, StudyStateError, open_result, result_attrs, write_result
 from .sampling import StudyConfig, config_hash, config_to_json, design, load_config, sampled_name
 from .simulate import DEFAULT_DT
@@ -81,12 +82,48 @@ class Task:
     run: tuple[int, ...]
     rows: tuple[dict[str, Any], ...]
     grid: TimeGrid
+    mode: str = "grid"
+    # critical_incline mode: incline range and tolerance, check grid, fine time grid
+    lo: float = 0.0
+    hi: float = 0.0
+    tol: float = 0.0
+    inclines: tuple[float, ...] = ()
+    fine: TimeGrid | None = None
 
 
 def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     """Run one batch (the function every dask task calls)."""
-    out = simulate_rows(task.shape, task.rows, task.grid)
-    return task.kind, np.asarray(task.run, dtype=np.int64), out
+    run = np.asarray(task.run, dtype=np.int64)
+    if task.mode == "grid":
+        return task.kind, run, simulate_rows(task.shape, task.rows, task.grid)
+    if task.kind == "main":
+        return task.kind, run, bisect_rows(task.shape, task.rows, task.grid, task.lo, task.hi, task.tol)
+    return task.kind, run, _critical_check(task)
+
+
+def _critical_check(task: Task) -> dict[str, np.ndarray]:
+    """Check runs of a critical-incline study: verdicts at every grid incline (the
+    monotonicity check) and, at the two grid inclines around the first failure, the
+    verdicts at the finer dt (the numerical check)."""
+    th = np.asarray(task.inclines, dtype=float)
+    mono = monotonicity_rows(task.shape, task.rows, task.grid, th)
+    n = len(task.rows)
+    pair = np.zeros((n, 2))
+    for i in range(n):
+        fails = np.flatnonzero(mono["climbed"][i] == 0)
+        k = int(fails[0]) if len(fails) else len(th) - 1
+        pair[i] = (th[max(k - 1, 0)], th[k])
+    assert task.fine is not None
+    fine = simulate_rows(task.shape, [dict(r, incline_deg=float(t)) for r, p in zip(task.rows, pair, strict=True) for t in p], task.fine)
+    coarse = np.array([[mono["climbed"][i][np.searchsorted(th, t)] for t in pair[i]] for i in range(n)], dtype=np.int8)
+    return {
+        "grid_climbed": mono["climbed"],
+        "grid_status": mono["status"],
+        "pair_incline": pair,
+        "pair_climbed": coarse.reshape(n, 2),
+        "pair_climbed_fine": fine["climbed"].reshape(n, 2),
+        "pair_status_fine": fine["status"].reshape(n, 2),
+    }
 
 
 # --------------------------------------------------------------------------- planning
@@ -95,16 +132,17 @@ def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
 def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int]) -> list[dict[str, Any]]:
     """``simulate`` keywords of runs ``idx`` (a sampled ``field_mT`` replaces the cell's)."""
     names = cfg.uncertain_names
-    cols = {k: des[k].values for k in ("substrate", "incline_deg", "field_mT", "freq_hz")}
+    cols = {k: des[k].values for k in ("substrate", "incline_deg", "field_mT", "freq_hz") if k in des.variables}
     sampled = {k: des[sampled_name(k)].values for k in names}
     rows = []
     for i in idx:
         row: dict[str, Any] = {
             "preset": str(cols["substrate"][i]),
-            "incline_deg": float(cols["incline_deg"][i]),
             "field_mT": float(cols["field_mT"][i]),
             "freq_hz": float(cols["freq_hz"][i]),
         }
+        if "incline_deg" in cols:  # absent in a critical-incline study
+            row["incline_deg"] = float(cols["incline_deg"][i])
         for k in names:
             row[k] = float(sampled[k][i])
         rows.append(row)
@@ -139,7 +177,17 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
             stop += 1
         idx = todo[start:stop]
         key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
-        tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), tuple(_rows(cfg, des, idx)), grid))
+        rows = tuple(_rows(cfg, des, idx))
+        if cfg.mode == "grid":
+            tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid))
+        else:
+            lo, hi = cfg.incline_range
+            tasks.append(
+                Task(
+                    kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid_of(cfg), cfg.mode, lo, hi, cfg.incline_tol,
+                    tuple(t for t in cfg.incline_deg if lo <= t <= hi), grid_of(cfg, fine=True),
+                )
+            )  # fmt: skip
         start = stop
     return tasks
 
@@ -292,8 +340,15 @@ def run_study(
         _execute(tasks, client, on_result, mif)
     finally:
         bar.close()
-    runs = assemble_runs(cfg, des, store.read("main"), check_idx, store.read("check"))
-    maps = make_maps(runs, level=cfg.ci_level, method=cfg.ci)
+    if cfg.mode == "grid":
+        runs = assemble_runs(cfg, des, store.read("main"), check_idx, store.read("check"))
+        maps = make_maps(runs, level=cfg.ci_level, method=cfg.ci)
+    else:
+        runs = assemble_critical(cfg, des, store.read("main"), check_idx, store.read("check"))
+        lo, hi = cfg.incline_range
+        curve = np.round(np.arange(lo, hi + 0.5 * cfg.incline_tol, cfg.incline_tol), 10)
+        maps = make_maps(expand_to_grid(runs, curve), level=cfg.ci_level, method=cfg.ci)
+        maps.attrs["p_success_definition"] = "fraction of valid samples whose critical incline is at least incline_deg"
     attrs = provenance(cfg, cjson, chash)
     maps.attrs.update(attrs)
     runs.attrs.update(attrs)
@@ -382,6 +437,111 @@ def assemble_runs(
         runs["run"].attrs.update({"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"})
     runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
     runs.attrs["dt"] = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    return runs
+
+
+def assemble_critical(
+    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
+) -> xr.Dataset:
+    """The ``runs`` group of a critical-incline study: the design, each sample's critical
+    incline, and the monotonicity and numerical checks of the check subset."""
+    n = des.sizes["run"]
+    runs = des.copy()
+    if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
+        raise RuntimeError("internal error: the shards do not hold every run of the study")
+    for k, dtype in CRITICAL_OUTCOMES.items():
+        runs[k] = ("run", main[k].astype(dtype))
+        runs[k].attrs.update(CRITICAL_ATTRS[k])
+    runs["error"] = ("run", main["error"].astype(str))
+    runs["error"].attrs.update(OUTCOME_ATTRS["error"])
+    runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
+    runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
+    lo, hi = cfg.incline_range
+    th = np.array([t for t in cfg.incline_deg if lo <= t <= hi])
+    runs.attrs.update(
+        {
+            "mode": cfg.mode,
+            "incline_range_min": lo,
+            "incline_range_max": hi,
+            "incline_tol": cfg.incline_tol,
+            "check_dt_factor": float(cfg.check.dt_factor),
+        }
+    )
+    runs.attrs["dt"] = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    if len(check_idx):
+        pos = np.searchsorted(check["run"], check_idx)
+        g = check["grid_climbed"][pos].astype(np.int8)
+        gs = check["grid_status"][pos].astype(np.int8)
+        crit = runs["critical_incline_deg"].values[check_idx]
+        with np.errstate(invalid="ignore"):
+            pred = (np.nan_to_num(crit, nan=-np.inf)[:, None] >= th[None, :] - 1e-9).astype(np.int8)
+        ok = (gs == 0) & (runs["status"].values[check_idx] == 0)[:, None]
+        dis = (g != pred) & ok
+        # a verdict sequence along the incline is monotone if it never climbs after a failure
+        nonmono = np.array([bool(np.any(np.diff(row[okr].astype(int)) > 0)) for row, okr in zip(g, ok, strict=True)])
+        runs = runs.assign_coords(check=np.arange(len(check_idx)), check_incline_deg=th)
+        runs["check"].attrs.update({"units": "1", "long_name": "index of a check run"})
+        runs["check_incline_deg"].attrs.update({"units": "degree", "long_name": "grid incline of the monotonicity check"})
+        runs["check_run"] = ("check", check_idx)
+        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a checked sample"})
+        runs["check_grid_climbed"] = (("check", "check_incline_deg"), g)
+        runs["check_grid_climbed"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdict of a direct simulation at the grid incline",
+                "flag_values": [0, 1],
+                "flag_meanings": "no yes",
+            }
+        )
+        runs["check_grid_status"] = (("check", "check_incline_deg"), gs)
+        runs["check_grid_status"].attrs.update(
+            {"units": "1", "long_name": "status of the direct simulation at the grid incline", **STATUS_FLAGS}
+        )
+        runs["check_disagree"] = (("check", "check_incline_deg"), dis.astype(np.int8))
+        runs["check_disagree"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "direct verdict differs from incline <= critical_incline_deg",
+                "flag_values": [0, 1],
+                "flag_meanings": "agree disagree",
+            }
+        )
+        runs["check_nonmonotone"] = ("check", nonmono.astype(np.int8))
+        runs["check_nonmonotone"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "sample climbs a grid incline steeper than one it fails",
+                "flag_values": [0, 1],
+                "flag_meanings": "monotone nonmonotone",
+            }
+        )
+        pc, pf = check["pair_climbed"][pos].astype(np.int8), check["pair_climbed_fine"][pos].astype(np.int8)
+        pok = check["pair_status_fine"][pos] == 0
+        agree = np.all((pc == pf) | ~pok, axis=1).astype(np.int8)
+        runs["check_agree"] = ("check", agree)
+        runs["check_agree"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor",
+                "flag_values": [0, 1],
+                "flag_meanings": "no yes",
+            }
+        )
+        runs["check_climbed_fine"] = (("check", "pair"), pf)
+        runs["check_climbed_fine"].attrs.update(
+            {"units": "1", "long_name": "verdicts at dt / check_dt_factor at the inclines check_pair_incline_deg"}
+        )
+        runs["check_pair_incline_deg"] = (("check", "pair"), check["pair_incline"][pos])
+        runs["check_pair_incline_deg"].attrs.update(
+            {"units": "degree", "long_name": "last climbing and first failing grid incline of the direct simulation"}
+        )
+        n_ok = int(ok.sum())
+        runs.attrs["monotonicity_disagreement_rate"] = float(dis.sum() / n_ok) if n_ok else math.nan
+        runs.attrs["monotonicity_nonmonotone_samples"] = int(nonmono.sum())
+        runs.attrs["monotonicity_checked_samples"] = len(check_idx)
+        runs.attrs["check_agreement_rate"] = float(agree.mean())
+    runs.attrs["simulations_total"] = int(runs["n_simulations"].sum())
+    runs.attrs["simulations_grid_equivalent"] = int(n * len(th))
     return runs
 
 

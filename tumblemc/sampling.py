@@ -19,7 +19,11 @@ key                  meaning
 ===================  ===================================================================
 name*                identifier, ``[A-Za-z0-9_-]+``
 description          free text
-mode                 ``"grid"`` (default; the only mode so far)
+mode                 ``"grid"`` (default: every run is one incline of the grid) or
+                     ``"critical_incline"`` (every run is one parameter sample; the
+                     engine bisects on the incline for the steepest one it climbs)
+incline_range        critical_incline only: ``{min, max}`` degrees (default 0, 60)
+incline_tol          critical_incline only: bisection tolerance, degrees (default 0.5)
 shapes*              list of shape names (:data:`tumblemc.shapes.SHAPES`)
 presets*             list of substrate presets (:data:`tumblemc.params.PRESETS`); the
                      run-table coordinate is ``substrate``
@@ -158,7 +162,7 @@ from .params import PRESETS
 
 #: version of the seed derivation and sampler mapping; part of every config hash
 SAMPLING_SCHEME = 1
-MODES = ("grid",)
+MODES = ("grid", "critical_incline")
 SAMPLERS = ("mc", "sobol", "lhs")
 CI_METHODS = ("wilson", "clopper-pearson")
 TORQUES = ("start", "end")
@@ -344,6 +348,8 @@ class StudyConfig:
     samples: int
     seed: int
     description: str = ""
+    incline_range: tuple[float, float] = (0.0, 60.0)
+    incline_tol: float = 0.5
     mode: str = "grid"
     periods: float = 2.0
     transient_periods: float = 1.0
@@ -668,8 +674,23 @@ def _grid_cells(c: StudyConfig) -> list[dict[str, Any]]:
     ]
 
 
+def _critical_cells(c: StudyConfig) -> list[dict[str, Any]]:
+    return [
+        {"shape": s, "substrate": p, "field_mT": b, "freq_hz": f}
+        for s in c.shapes
+        for p in c.presets
+        for b in c.field_mT
+        for f in c.freq_hz
+    ]
+
+
 _MODES: dict[str, _Mode] = {
     "grid": _Mode(("shape", "substrate", "incline_deg", "field_mT", "freq_hz"), ("incline_deg",), ("incline_deg",), _grid_cells),
+    # one run = one parameter sample; the engine bisects on the incline within
+    # incline_range to incline_tol; incline_deg is the grid of the monotonicity check
+    "critical_incline": _Mode(
+        ("shape", "substrate", "field_mT", "freq_hz"), ("incline_deg", "incline_range", "incline_tol"), ("incline_deg",), _critical_cells
+    ),
 }
 
 _COMMON_KEYS = (
@@ -754,6 +775,14 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
     field_mT = _num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, 10_000.0, lo_open=True)
     freq_hz = _num_list("freq_hz", req("freq_hz", "a number or list, Hz"), 0.0, 10_000.0, lo_open=True)
 
+    rng_t = _table("incline_range", d.get("incline_range", {"min": 0.0, "max": 60.0}))
+    _no_unknown(rng_t, ("min", "max"), "incline_range")
+    inc_min = _num("incline_range.min", rng_t.get("min", 0.0), -89.0, 89.0)
+    inc_max = _num("incline_range.max", rng_t.get("max", 60.0), -89.0, 89.0)
+    if not inc_max > inc_min:
+        raise _bad("incline_range.max", inc_max, "is not above incline_range.min", f"a number > {inc_min:g}")
+    inc_tol = _num("incline_tol", d.get("incline_tol", 0.5), 1e-3, 90.0)
+
     periods = _num("periods", d.get("periods", 2.0), 2.0, 1e6)
     transient = _num("transient_periods", d.get("transient_periods", 1.0), 0.0, 1e6)
     if transient > periods - 1.0:
@@ -798,6 +827,8 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
         samples=samples,
         seed=seed,
         description=description,
+        incline_range=(inc_min, inc_max),
+        incline_tol=inc_tol,
         mode=mode,
         periods=periods,
         transient_periods=transient,
@@ -862,6 +893,9 @@ def config_to_json(config: StudyConfig) -> str:
     for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
         d[k] = list(d[k])
     d["uncertain"] = {u.param: u.to_dict() for u in config.uncertain}
+    d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
+    if config.mode == "grid":  # keys only the critical-incline mode takes
+        del d["incline_range"], d["incline_tol"]
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
@@ -960,6 +994,9 @@ def design(config: StudyConfig) -> xr.Dataset:
     def per_run(name: str) -> np.ndarray:
         return np.repeat(np.asarray([cell[name] for cell in cl]), n)
 
+    if "incline_deg" not in config.cell_dims:  # the critical-incline mode: no incline per run
+        cl = [{**cell, "incline_deg": np.nan} for cell in cl]
+
     run = ("run",)
     coords: dict[str, Any] = {
         "run": np.arange(total),
@@ -972,6 +1009,8 @@ def design(config: StudyConfig) -> xr.Dataset:
         "cell_key": (run, np.repeat(np.asarray(ckeys, dtype=str), n), {"long_name": "stable cell id (sha256 of the cell coordinates)"}),
         "run_key": (run, keys, {"units": "1", "long_name": "stable run id (sha256 of the cell and sample)"}),
     }
+    if "incline_deg" not in config.cell_dims:
+        del coords["incline_deg"]
     data: dict[str, Any] = {}
     for j, unc in enumerate(config.uncertain):
         r = PHYSICAL_RANGE[unc.param]

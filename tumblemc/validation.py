@@ -237,7 +237,11 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
 
 SHAPE_ORDER = ("cuboid", "spiked", "spiked_ends", "curved")
 #: paper (MODEL.md "What the paper reports"): aluminum, 20 mT, 1 Hz
-SHAPE_CLIMBS = {20: dict.fromkeys(SHAPE_ORDER, True), 30: {"cuboid": True, "spiked": True, "spiked_ends": True, "curved": False}, 45: dict.fromkeys(SHAPE_ORDER, False)}
+SHAPE_CLIMBS = {
+    20: dict.fromkeys(SHAPE_ORDER, True),
+    30: {"cuboid": True, "spiked": True, "spiked_ends": True, "curved": False},
+    45: dict.fromkeys(SHAPE_ORDER, False),
+}
 
 
 def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
@@ -261,7 +265,14 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
             _robust(rep, f"{shape} flat {preset} 10 Hz", s, wall)
         order = sorted(SHAPE_ORDER, key=lambda k: -speeds[preset][k])
         ok = order[0] == "curved" and order[-1] == "cuboid"
-        rep.add("C6", f"shapes, flat {preset}, 20 mT, 10 Hz", "order of mean speed, fastest first", " > ".join(order), "curved fastest, cuboid slowest", "pass" if ok else "FAIL")
+        rep.add(
+            "C6",
+            f"shapes, flat {preset}, 20 mT, 10 Hz",
+            "order of mean speed, fastest first",
+            " > ".join(order),
+            "curved fastest, cuboid slowest",
+            "pass" if ok else "FAIL",
+        )
     fig = Figure(figsize=(8, 4))
     ax = fig.add_subplot()
     x = np.arange(len(SHAPE_ORDER))
@@ -279,7 +290,14 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         for shape in SHAPE_ORDER:
             _, s, wall = _run(shape=shape, preset="aluminum", incline_deg=float(th))
             ok = s["climbed"] == want[shape]
-            rep.add("C7", f"{shape}, aluminum, {th} deg, 20 mT, 1 Hz", "progress ratio (climbed if >= 0.5)", f"{s['progress_ratio']:.3f}", "climbs" if want[shape] else "fails", "pass" if ok else "FAIL")
+            rep.add(
+                "C7",
+                f"{shape}, aluminum, {th} deg, 20 mT, 1 Hz",
+                "progress ratio (climbed if >= 0.5)",
+                f"{s['progress_ratio']:.3f}",
+                "climbs" if want[shape] else "fails",
+                "pass" if ok else "FAIL",
+            )
             _robust(rep, f"{shape} aluminum {th} deg", s, wall)
             if not ok:
                 mismatched.append((shape, th))
@@ -287,10 +305,19 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     for shape, th in mismatched[: 2 if quick else None]:
         for frac in (0.0, 0.25):
             _, s, _ = _run(shape=shape, preset="aluminum", incline_deg=float(th), line_contact_fraction=frac)
-            rep.add("S3", f"{shape}, aluminum, {th} deg, line_contact_fraction={frac}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report")
+            rep.add(
+                "S3",
+                f"{shape}, aluminum, {th} deg, line_contact_fraction={frac}",
+                "progress ratio",
+                f"{s['progress_ratio']:.3f}",
+                "(sensitivity)",
+                "report",
+            )
         for mu in (0.45, 0.65):
             _, s, _ = _run(shape=shape, preset="aluminum", incline_deg=float(th), mu=mu)
-            rep.add("S3", f"{shape}, aluminum, {th} deg, mu={mu}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report")
+            rep.add(
+                "S3", f"{shape}, aluminum, {th} deg, mu={mu}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report"
+            )
 
 
 def convergence(quick: bool = False) -> list[dict[str, Any]]:
