@@ -1,4 +1,4 @@
-"""Command line: ``tumblemc simulate | validate | study | shapes | bench`` (also
+"""Command line: ``tumblemc simulate | validate | study | shapes | animate | bench`` (also
 ``python -m tumblemc``).
 
 Examples::
@@ -8,6 +8,7 @@ Examples::
     tumblemc study status studies/smoke.toml
     tumblemc study plot results/smoke.nc
     tumblemc shapes --out shapes.png
+    tumblemc animate run.nc --out run.gif
     tumblemc validate --quick --out validation
     tumblemc bench --quick --repeats 3
 
@@ -194,6 +195,14 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("grid", help="result netCDF of a grid study of the same shapes and substrates")
     cmp.add_argument("--out", default=None, help="write the comparison table as CSV")
 
+    what = "animate a saved run (side view GIF or MP4)"
+    an = sub.add_parser("animate", help=what, description="Animate a run written by `tumblemc simulate --out run.nc`: body outline, field arrow, contact point, adhesion.")
+    an.add_argument("run", help="netCDF of one run (tumblemc simulate --out)")
+    an.add_argument("--out", default=None, help="GIF or MP4 path (default: the run's name with .gif)")
+    an.add_argument("--fps", type=float, default=25.0, help="frames per second (default: 25)")
+    an.add_argument("--max-frames", type=int, default=300, help="frames at most (default: 300)")
+    an.add_argument("--speed", type=float, default=None, help="simulated seconds per wall second (default: fit max-frames)")
+
     what = "draw every shape's profile, hull faces and adhesion areas"
     sh = sub.add_parser("shapes", help=what, description=what[0].upper() + what[1:] + ".")
     sh.add_argument("--out", default="shapes.png", help="PNG path (default: shapes.png)")
@@ -344,6 +353,19 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_animate(args: argparse.Namespace) -> int:
+    from .animation import animate_result
+
+    if args.max_frames < 2:
+        raise _UsageError(f"--max-frames {args.max_frames} is not allowed (allowed: >= 2)")
+    if not args.fps > 0:
+        raise _UsageError(f"--fps {args.fps} is not allowed (allowed: > 0)")
+    out = Path(args.out) if args.out else Path(args.run).with_suffix(".gif")
+    path = animate_result(args.run, out, fps=args.fps, max_frames=args.max_frames, speed=args.speed)
+    print(f"wrote {path}")
+    return EXIT_OK
+
+
 def _cmd_shapes(args: argparse.Namespace) -> int:
     from .plotting import plot_shapes
 
@@ -382,6 +404,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_study(args)
         if args.command == "shapes":
             return _cmd_shapes(args)
+        if args.command == "animate":
+            return _cmd_animate(args)
     except (ValueError, _UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -28,6 +28,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
+from typing import TypedDict
 
 import numpy as np
 import xarray as xr
@@ -149,9 +150,17 @@ def box_failure(X: ArrayLike, box: Mapping[int, tuple[float, float]] | None = No
     return inside.astype(np.int8)
 
 
+class Cell(TypedDict):
+    """A study cell by its coordinates (``incline_deg`` in degree)."""
+
+    shape: str
+    substrate: str
+    incline_deg: float
+
+
 #: cells of :func:`synthetic_runs` with a special outcome
-SYNTHETIC_ALL_SUCCESS = {"shape": "cuboid", "substrate": "paper", "incline_deg": 0.0}
-SYNTHETIC_SEPARATED = {"shape": "cuboid", "substrate": "aluminum", "incline_deg": 30.0}
+SYNTHETIC_ALL_SUCCESS: Cell = {"shape": "cuboid", "substrate": "paper", "incline_deg": 0.0}
+SYNTHETIC_SEPARATED: Cell = {"shape": "cuboid", "substrate": "aluminum", "incline_deg": 30.0}
 
 
 def synthetic_runs(
@@ -207,7 +216,7 @@ def synthetic_runs(
     climbed = (rng.uniform(size=n) < p).astype(np.int8)
     ratio = 0.5 + 0.25 * slope * z[:, 0] / (1.0 + abs(slope)) + rng.normal(0.0, 0.05, n)
 
-    def in_cell(c: Mapping[str, object]) -> np.ndarray:
+    def in_cell(c: Cell) -> np.ndarray:
         return (shape == c["shape"]) & (substrate == c["substrate"]) & (incline == c["incline_deg"])
 
     easy = in_cell(SYNTHETIC_ALL_SUCCESS)
@@ -248,6 +257,7 @@ __all__ = [
     "ISHIGAMI_BOUNDS",
     "SYNTHETIC_ALL_SUCCESS",
     "SYNTHETIC_SEPARATED",
+    "Cell",
     "box_failure",
     "ishigami",
     "ishigami_indices",

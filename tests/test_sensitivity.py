@@ -1,0 +1,299 @@
+"""Sensitivity analysis and scenario discovery against analytic benchmarks.
+
+Tolerances say what kind of check each test is:
+
+- REGRESSION (exact arithmetic, rounding only): design layout, closed-form indices.
+- STATISTICAL: estimates from finite samples against the closed form. Seeds are fixed,
+  so the tests are deterministic, but the tolerance is sized from the estimator's
+  sampling error (a few bootstrap or binomial standard errors), not from rounding; a new
+  seed may move an estimate within it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from tumblemc.plotting_study import plot_prim, plot_sobol, plot_success_vs_parameter
+from tumblemc.sampling import PHYSICAL_RANGE, load_config
+from tumblemc.sensitivity import (
+    failure_region,
+    logistic_summary,
+    map_unit_samples,
+    prim_box,
+    rank_correlation,
+    saltelli_design,
+    sobol_indices,
+    sobol_rows,
+    split_saltelli,
+)
+from tumblemc.testing import (
+    BOX_FAILURE_BOX,
+    ISHIGAMI_BOUNDS,
+    SYNTHETIC_ALL_SUCCESS,
+    SYNTHETIC_SEPARATED,
+    box_failure,
+    ishigami,
+    ishigami_indices,
+    linear_additive,
+    linear_indices,
+    synthetic_runs,
+)
+
+# REGRESSION: literature values of the Ishigami indices (a = 7, b = 0.1) to 4 decimals
+ISHIGAMI_LITERATURE = {"S1": (0.3139, 0.4424, 0.0), "ST": (0.5576, 0.4424, 0.2437)}
+LITERATURE_ATOL = 5e-5
+# STATISTICAL: Ishigami at n = 2**12 base rows; bootstrap SEs are ~0.02 for S1 and
+# 0.007-0.02 for ST, so 0.06 is about 3 SE of the noisiest index.
+ISHIGAMI_N = 2**12
+ISHIGAMI_STAT_ATOL = 0.06
+# STATISTICAL: linear additive model at n = 2**10 (SE of S1 ~0.01-0.02)
+LINEAR_STAT_ATOL = 0.05
+# STATISTICAL: ~390 valid runs per cell; SE of Spearman rho under independence is
+# 1 / sqrt(n - 1) ~ 0.05, so |rho| < 0.2 is 4 SE; logistic coefficients within 4 SE.
+RHO_NULL_ATOL = 0.2
+N_SE = 4.0
+# STATISTICAL: PRIM boundary on 4000 uniform points; one peel moves a bound by
+# alpha x (box width) <= 0.05, plus the gap between neighbouring points.
+PRIM_BOUND_ATOL = 0.05
+
+
+def _unit_to(bounds: tuple[tuple[float, float], ...], U: np.ndarray) -> np.ndarray:
+    lo = np.array([b[0] for b in bounds])
+    hi = np.array([b[1] for b in bounds])
+    return lo + (hi - lo) * U
+
+
+# ------------------------------------------------------------------------------ design
+
+
+def test_saltelli_design_layout() -> None:
+    n, d = 16, 3
+    des = saltelli_design(n, d, seed=5)
+    assert des.A.shape == (n, d) and des.B.shape == (n, d) and des.AB.shape == (d, n, d)
+    for i in range(d):
+        others = [j for j in range(d) if j != i]
+        np.testing.assert_array_equal(des.AB[i][:, i], des.B[:, i])
+        np.testing.assert_array_equal(des.AB[i][:, others], des.A[:, others])
+    stacked = des.stack()
+    assert stacked.shape == (n * (d + 2), d)
+    assert np.all((stacked >= 0.0) & (stacked < 1.0))
+    # SALib row order, and split_saltelli is its inverse
+    np.testing.assert_array_equal(stacked[0], des.A[0])
+    np.testing.assert_array_equal(stacked[1], des.AB[0][0])
+    np.testing.assert_array_equal(stacked[d + 1], des.B[0])
+    code = stacked @ np.array([1.0, 10.0, 100.0])
+    yA, yB, yAB = split_saltelli(code, d)
+    np.testing.assert_array_equal(yA, des.A @ [1.0, 10.0, 100.0])
+    np.testing.assert_array_equal(yB, des.B @ [1.0, 10.0, 100.0])
+    np.testing.assert_array_equal(yAB, des.AB @ [1.0, 10.0, 100.0])
+    np.testing.assert_array_equal(saltelli_design(n, d, seed=5).stack(), stacked)
+    assert not np.array_equal(saltelli_design(n, d, seed=6).A, des.A)
+
+
+def test_saltelli_design_rejects_non_power_of_two() -> None:
+    with pytest.raises(ValueError, match="power of 2.*use 64 or 128"):
+        saltelli_design(100, 2, seed=0)
+    with pytest.raises(ValueError, match="d must be"):
+        saltelli_design(8, 0, seed=0)
+
+
+def test_sobol_rows_map_config_distributions() -> None:
+    config = load_config(
+        {
+            "name": "sens",
+            "shapes": ["cuboid"],
+            "presets": ["paper", "aluminum"],
+            "incline_deg": [0, 30],
+            "field_mT": 20,
+            "freq_hz": 1,
+            "samples": 4,
+            "seed": 1,
+        }
+    )
+    n = 8
+    d = len(config.uncertain)
+    U, rows = sobol_rows(config, n, 3, "cuboid", "aluminum", 30.0)
+    assert U.shape == (n * (d + 2), d) and len(rows) == U.shape[0]
+    np.testing.assert_array_equal(U, saltelli_design(n, d, 3).stack())
+    values = map_unit_samples(config, U, "aluminum", 20.0)
+    for j, unc in enumerate(config.uncertain):
+        col = np.array([r[unc.param] for r in rows])
+        np.testing.assert_array_equal(col, values[unc.param])
+        r = PHYSICAL_RANGE[unc.param]
+        assert np.all([r.contains(v) for v in col])
+        # a monotone map: the unit column and the values are in the same order
+        assert np.all(np.diff(col[np.argsort(U[:, j])]) >= 0.0)
+    row = rows[0]
+    assert (row["shape"], row["preset"], row["incline_deg"], row["field_mT"], row["freq_hz"]) == ("cuboid", "aluminum", 30.0, 20.0, 1.0)
+    assert row["duration_s"] == config.duration_s(1.0)
+
+
+# ----------------------------------------------------------------------- Sobol indices
+
+
+def test_ishigami_closed_form_matches_literature() -> None:
+    ref = ishigami_indices()
+    for key, lit in ISHIGAMI_LITERATURE.items():
+        np.testing.assert_allclose(ref[key], lit, atol=LITERATURE_ATOL)
+
+
+def test_sobol_indices_ishigami() -> None:
+    des = saltelli_design(ISHIGAMI_N, 3, seed=1)
+    y = ishigami(_unit_to(ISHIGAMI_BOUNDS, des.stack()))
+    ind = sobol_indices(*split_saltelli(y, 3), names=["x1", "x2", "x3"], n_boot=1000, seed=0)
+    ref = ishigami_indices()
+    assert ind.attrs["n_used"] == ISHIGAMI_N and ind.attrs["n_dropped"] == 0
+    for key in ("S1", "ST"):
+        est, lo, hi = ind[key].values, ind[f"{key}_lower"].values, ind[f"{key}_upper"].values
+        assert np.all((lo <= ref[key]) & (ref[key] <= hi)), (key, est, lo, hi, ref[key])
+        np.testing.assert_allclose(est, ref[key], atol=ISHIGAMI_STAT_ATOL)
+    for name, v in ind.data_vars.items():
+        assert v.attrs["units"] == "1" and v.attrs["long_name"], name
+
+
+def test_sobol_indices_linear_additive() -> None:
+    c = [1.0, 2.0, 0.5, 0.0]
+    des = saltelli_design(2**10, 4, seed=2)
+    ind = sobol_indices(*split_saltelli(linear_additive(des.stack(), c), 4), n_boot=200)
+    ref = linear_indices(c)
+    np.testing.assert_allclose(ind["S1"].values, ref["S1"], atol=LINEAR_STAT_ATOL)
+    np.testing.assert_allclose(ind["ST"].values, ref["ST"], atol=LINEAR_STAT_ATOL)
+    # REGRESSION: an input with no effect has ST exactly 0 (yA == yAB_i row by row)
+    assert ind["ST"].values[3] == 0.0
+
+
+def test_sobol_indices_drop_non_finite_rows() -> None:
+    des = saltelli_design(2**8, 3, seed=3)
+    yA, yB, yAB = split_saltelli(ishigami(_unit_to(ISHIGAMI_BOUNDS, des.stack())), 3)
+    bad = np.zeros(yA.size, dtype=bool)
+    bad[[3, 50, 51]] = True
+    yA2, yAB2 = yA.copy(), yAB.copy()
+    yA2[3] = np.nan
+    yAB2[1, 50] = np.inf
+    yAB2[2, 51] = np.nan
+    got = sobol_indices(yA2, yB, yAB2, n_boot=50)
+    want = sobol_indices(yA[~bad], yB[~bad], yAB[:, ~bad], n_boot=50)
+    assert got.attrs["n_dropped"] == 3 and got.attrs["n_used"] == yA.size - 3
+    np.testing.assert_array_equal(got["S1"].values, want["S1"].values)
+    np.testing.assert_array_equal(got["ST"].values, want["ST"].values)
+    with pytest.raises(ValueError, match="constant"):
+        sobol_indices(np.ones(8), np.ones(8), np.ones((2, 8)))
+
+
+# ------------------------------------------------------------------- per-cell analyses
+
+
+def _cell(ds: xr.Dataset, spec: Mapping[str, Any]) -> xr.Dataset:
+    return ds.sel(shape=spec["shape"], substrate=spec["substrate"], incline_deg=spec["incline_deg"])
+
+
+def _ordinary_cells(ds: xr.Dataset) -> list[xr.Dataset]:
+    out = []
+    for shape in ds["shape"].values:
+        for sub in ds["substrate"].values:
+            for inc in ds["incline_deg"].values:
+                spec = {"shape": shape, "substrate": sub, "incline_deg": inc}
+                if spec not in (SYNTHETIC_ALL_SUCCESS, SYNTHETIC_SEPARATED):
+                    out.append(_cell(ds, spec))
+    return out
+
+
+def test_rank_correlation_recovers_mu() -> None:
+    runs = synthetic_runs()
+    rc = rank_correlation(runs)
+    assert rc["rho"].dims == ("shape", "substrate", "incline_deg", "parameter")
+    others = [p for p in rc["parameter"].values if p != "mu"]
+    for cell in [*_ordinary_cells(rc), _cell(rc, SYNTHETIC_ALL_SUCCESS)]:
+        assert cell["rho"].sel(parameter="mu") > 0.8
+        assert cell["rho_lower"].sel(parameter="mu") > 0.7
+        assert cell["p_value"].sel(parameter="mu") < 1e-10
+        assert np.all(np.abs(cell["rho"].sel(parameter=others).values) < RHO_NULL_ATOL)
+    assert np.all(rc["n_valid"].values > 350)
+    for name, v in rc.data_vars.items():
+        assert "units" in v.attrs and v.attrs["long_name"], name
+
+
+def test_rank_correlation_binary_outcome_and_flat_cell() -> None:
+    rc = rank_correlation(synthetic_runs(), outcome="climbed")
+    flat = _cell(rc, SYNTHETIC_ALL_SUCCESS)
+    assert bool(flat["no_variation"]) and np.all(np.isnan(flat["rho"].values))
+    assert int(rc["no_variation"].sum()) == 1
+    for cell in _ordinary_cells(rc):
+        assert cell["rho"].sel(parameter="mu") > 0.5
+
+
+def test_logistic_summary_recovers_mu() -> None:
+    slope = 3.0
+    runs = synthetic_runs(slope=slope)
+    lg = logistic_summary(runs)
+    assert lg["coef"].dims == ("shape", "substrate", "incline_deg", "parameter")
+    others = [p for p in lg["parameter"].values if p != "mu"]
+    for cell in _ordinary_cells(lg):
+        mu = cell.sel(parameter="mu")
+        assert bool(cell["converged"]) and not bool(cell["separated"]) and not bool(cell["no_variation"])
+        assert abs(float(mu["coef"]) - slope) < N_SE * float(mu["coef_se"])
+        rest = cell.sel(parameter=others)
+        assert np.all(np.abs(rest["coef"].values) < N_SE * rest["coef_se"].values)
+        assert float(mu["coef"]) > 3.0 * np.max(np.abs(rest["coef"].values))
+    flat = _cell(lg, SYNTHETIC_ALL_SUCCESS)
+    assert bool(flat["no_variation"]) and float(flat["p_success"]) == 1.0
+    assert np.all(np.isnan(flat["coef"].values))
+    sep = _cell(lg, SYNTHETIC_SEPARATED)
+    assert bool(sep["separated"]) and not bool(sep["no_variation"])
+    coef = sep["coef"]
+    assert np.all(np.isfinite(coef.values)) and float(coef.sel(parameter="mu")) > 3.0 * np.max(np.abs(coef.sel(parameter=others).values))
+    assert int(lg["separated"].sum()) == 1
+    for name, v in lg.data_vars.items():
+        assert "units" in v.attrs and v.attrs["long_name"], name
+    assert list(lg["parameter_units"].values) == ["N/m^2", "A/m", "1", "degree"]
+
+
+# --------------------------------------------------------------------------------- PRIM
+
+
+def test_prim_recovers_known_box() -> None:
+    rng = np.random.default_rng(11)
+    X = rng.uniform(size=(4000, 4))
+    res = prim_box(X, box_failure(X), ["x1", "x2", "x3", "x4"], alpha=0.05, min_support=0.05)
+    assert set(res.box) == {"x1", "x2"}
+    (lo1, hi1), (lo2, hi2) = res.box["x1"], res.box["x2"]
+    assert abs(lo1 - BOX_FAILURE_BOX[0][0]) < PRIM_BOUND_ATOL and hi1 == np.inf
+    assert abs(hi2 - BOX_FAILURE_BOX[1][1]) < PRIM_BOUND_ATOL and lo2 == -np.inf
+    assert res.density >= 0.99 and res.coverage > 0.85
+    traj = res.trajectory
+    assert traj.attrs["chosen_step"] == res.step
+    assert np.all(np.diff(traj["support"].values) < 0) and traj["support"].values[-1] >= 0.05
+    np.testing.assert_array_equal(res.contains(X).sum(), traj["n_in_box"].values[res.step])
+
+
+def test_failure_region_of_a_study_cell() -> None:
+    runs = synthetic_runs()
+    sep = failure_region(runs, **SYNTHETIC_SEPARATED)
+    assert set(sep.box) == {"mu"} and sep.density == 1.0 and sep.coverage > 0.95
+    assert sep.box["mu"][0] == -np.inf and abs(sep.box["mu"][1] - 0.3) < 0.01  # climbs iff mu > 0.3
+    with pytest.raises(ValueError, match="nothing to find"):
+        failure_region(runs, **SYNTHETIC_ALL_SUCCESS)
+
+
+# -------------------------------------------------------------------------------- plots
+
+
+def test_sensitivity_plots_write_png(tmp_path: Path) -> None:
+    des = saltelli_design(2**8, 3, seed=4)
+    ind = sobol_indices(*split_saltelli(ishigami(_unit_to(ISHIGAMI_BOUNDS, des.stack())), 3), n_boot=100)
+    runs = synthetic_runs(per_cell=60)
+    res = failure_region(runs, "curved", "paper", 0.0)
+    paths = [tmp_path / f"{k}.png" for k in ("sobol", "vs_cell", "vs_all", "prim")]
+    plot_sobol(ind, paths[0])
+    plot_success_vs_parameter(runs, "curved", "paper", 0.0, paths[1])
+    plot_success_vs_parameter(runs, "cuboid", "paper", path=paths[2])  # every incline, one all-success
+    fig = plot_prim(res.trajectory, paths[3])
+    assert fig.axes
+    for p in paths:
+        assert p.stat().st_size > 1000, p
