@@ -100,3 +100,21 @@ def test_nonplanar_magnetisation_runs_without_failed_steps(nonplanar) -> None:  
     """Issue 2 acceptance: 20 runs, random tilt axes and offsets up to 30 deg (roll, yaw)."""
     assert all(s["failed_steps"] == 0 for s in nonplanar)
     assert max(s["max_penetration"] for s in nonplanar) <= 1e-3 * HEIGHT
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("shape", ["cuboid", "spiked", "spiked_ends", "curved"])
+@pytest.mark.parametrize("preset", ["paper", "aluminum"])
+def test_every_shape_runs_with_no_failed_steps(shape: str, preset: str) -> None:
+    """Issue 3: every shape on flat and inclined planes, 2 field periods, 0 failed steps."""
+    for incline in (0.0, 20.0, 30.0):
+        s = tumblemc.summarize(tumblemc.simulate(shape=shape, preset=preset, incline_deg=incline, duration_s=2.0))
+        assert s["failed_steps"] == 0, (shape, preset, incline)
+        assert s["max_penetration"] <= 1e-3 * 100e-6
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known gap: the curved robot rolls down the 45 deg aluminum incline at ~6 m/s spinning at 7e3-2e4 rad/s; 2 of 40000 steps do not converge")
+def test_curved_aluminum_45_deg_no_failed_steps() -> None:
+    s = tumblemc.summarize(tumblemc.simulate(shape="curved", preset="aluminum", incline_deg=45.0, duration_s=2.0))
+    assert s["failed_steps"] == 0

@@ -124,9 +124,9 @@ display(Image(filename=out / "curves.png", width=800))"""),
     ("md", """## Back to the runs
 
 Each run keeps its sampled parameters, so any question is a selection away: for instance,
-the friction coefficient of the cuboid runs on aluminum at 20 degrees that climbed and
+the friction coefficient of the cuboid runs on aluminum at 25 degrees that climbed and
 those that did not."""),
-    ("code", """sel = runs.where((runs.shape == "cuboid") & (runs.substrate == "aluminum") & (runs.incline_deg == 20), drop=True)
+    ("code", """sel = runs.where((runs.shape == "cuboid") & (runs.substrate == "aluminum") & (runs.incline_deg == 25), drop=True)
 ok = sel.status == 0
 for verdict in (1, 0):
     mu = sel.mu.where(ok & (sel.climbed == verdict), drop=True).values
@@ -188,10 +188,16 @@ print(f"simulations: {a['simulations_total']} for the curve vs {a['simulations_g
 Rank correlation of each sampled parameter with the progress ratio, per cell (valid runs
 only), and a logistic regression of the binary outcome on standardized parameters."""),
     ("code", """rc = sa.rank_correlation(runs)
-rc["rho"].sel(shape="cuboid", substrate="aluminum").to_pandas().round(2)"""),
-    ("code", """lg = sa.logistic_summary(runs)
-lg["coef"].sel(shape="cuboid", substrate="aluminum").to_pandas().round(2)"""),
-    ("code", """plot_success_vs_parameter(runs, "cuboid", "aluminum", 20.0, path=out / "vs_parameter.png")
+rc["rho"].sel(substrate="aluminum").to_dataframe()["rho"].unstack("parameter").round(2)"""),
+    ("md", """A binary outcome carries information only where it varies: the cells where some runs
+climb and some do not (the transition inclines)."""),
+    ("code", """mixed = [(str(s), str(p), float(t)) for s in maps.shape.values for p in maps.substrate.values for t in maps.incline_deg.values
+         if 0 < float(maps.p_success.sel(shape=s, substrate=p, incline_deg=t)) < 1]
+print("cells with both outcomes:", mixed)
+shape, substrate, theta = mixed[0]
+lg = sa.logistic_summary(runs)
+lg["coef"].sel(shape=shape, substrate=substrate, incline_deg=theta).to_pandas().round(2)"""),
+    ("code", """plot_success_vs_parameter(runs, shape, substrate, theta, path=out / "vs_parameter.png")
 display(Image(filename=out / "vs_parameter.png", width=800))"""),
     ("md", """### Sobol indices, tested on a known answer first
 
@@ -215,10 +221,7 @@ display(Image(filename=out / "sobol_ishigami.png", width=600))"""),
 
 PRIM peels the parameter box where the cell's valid runs failed to climb, trading
 coverage (share of all failures inside) for density (share of runs inside that fail)."""),
-    ("code", """cells = [(s, p, t) for s in maps.shape.values for p in maps.substrate.values for t in maps.incline_deg.values
-         if 0 < float(maps.p_success.sel(shape=s, substrate=p, incline_deg=t)) < 1]
-shape, substrate, theta = cells[0] if cells else ("cuboid", "aluminum", 20.0)
-box = sa.failure_region(runs, str(shape), str(substrate), float(theta))
+    ("code", """box = sa.failure_region(runs, shape, substrate, theta)
 print(f"{shape} on {substrate} at {theta} deg fails in {box.box}: coverage {box.coverage:.2f}, density {box.density:.2f}")
 plot_prim(box, out / "prim.png")
 display(Image(filename=out / "prim.png", width=600))"""),

@@ -519,3 +519,28 @@ def plot_prim(trajectory: xr.Dataset | PrimResult, path: str | os.PathLike[str] 
     ax.set_title(f"PRIM peeling; targets: {target}", fontsize=9)
     _save(fig, path)
     return fig
+
+
+def plot_critical_vs_grid(crit_maps: xr.Dataset, grid_maps: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
+    """The critical-incline curve (continuous, with its CI band) against the direct grid
+    map (points with CI bars), one panel per substrate, a colour per shape."""
+    subs = [str(s) for s in grid_maps["substrate"].values]
+    fig = Figure(figsize=(6.5 * len(subs), 4.2), layout="constrained")
+    axs = np.atleast_1d(fig.subplots(1, len(subs), squeeze=False)[0])
+    for ax, sub in zip(axs, subs, strict=True):
+        for j, shape in enumerate(str(s) for s in grid_maps["shape"].values):
+            col = f"C{j}"
+            c = crit_maps.sel(shape=shape, substrate=sub).squeeze()
+            th = c["incline_deg"].values
+            ax.plot(th, c["p_success"].values, color=col, label=f"{shape}: critical incline")
+            ax.fill_between(th, c["p_success_lower"].values, c["p_success_upper"].values, color=col, alpha=0.2, lw=0)
+            g = grid_maps.sel(shape=shape, substrate=sub).squeeze()
+            p = g["p_success"].values
+            err = np.vstack([p - g["p_success_lower"].values, g["p_success_upper"].values - p])
+            ax.errorbar(g["incline_deg"].values, p, yerr=err, fmt="o", color=col, mfc="white", capsize=3, label=f"{shape}: direct grid")
+        ax.set(xlabel="incline (deg)", ylabel="P(climb)", ylim=(-0.03, 1.03), title=f"substrate: {sub}")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    if path is not None:
+        fig.savefig(path, dpi=130)
+    return fig
