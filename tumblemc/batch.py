@@ -19,6 +19,7 @@ import numpy as np
 from .kernels import batch as KB
 from .kernels.newton import make_workspace
 from .kernels.residual import n_unknowns
+from .params import SolverOptions
 from .shapes import Shape, get_shape
 from .simulate import RunSpec, prepare
 
@@ -49,7 +50,8 @@ class TimeGrid:
     periods : duration in field periods; transient_periods : periods skipped before the
     speed is measured (as :func:`tumblemc.summarize`); dt : s (None: the default);
     torque : ``"start"`` or ``"end"``; success_ratio : progress-ratio threshold of
-    ``climbed``.
+    ``climbed``; max_failed_steps : stop a run after that many failed steps (0: never);
+    its outcome is then NaN with status ``failed_steps``.
     """
 
     periods: float = 2.0
@@ -57,6 +59,7 @@ class TimeGrid:
     dt: float | None = None
     torque: str = "start"
     success_ratio: float = 0.5
+    max_failed_steps: int = 0  # 0: never stop a run early (as simulate); studies use 1
 
 
 def _record_stride(n_steps: int, i0: int) -> tuple[int, int]:
@@ -100,7 +103,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
             if not freq > 0:
                 raise ValueError(f"freq_hz={freq!r} is out of range (allowed: > 0 for a study)")
             dur = grid.periods / freq
-            spec = prepare(shp, duration_s=dur, dt=grid.dt, torque=grid.torque, **kw)
+            spec = prepare(shp, duration_s=dur, dt=grid.dt, torque=grid.torque, solver=SolverOptions(max_failed_steps=grid.max_failed_steps), **kw)
         except (ValueError, TypeError) as exc:
             errors[i] = str(exc)
             continue

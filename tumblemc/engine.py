@@ -153,7 +153,9 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
     dt = cfg.dt if cfg.dt is not None else DEFAULT_DT
     if fine:
         dt = dt / cfg.check.dt_factor
-    return TimeGrid(periods=cfg.periods, transient_periods=cfg.transient_periods, dt=dt, torque=cfg.torque, success_ratio=cfg.success_ratio)
+    # a run with a failed step is invalid in a study (status failed_steps): stop it there
+    # instead of finishing it at the smallest sub-step
+    return TimeGrid(periods=cfg.periods, transient_periods=cfg.transient_periods, dt=dt, torque=cfg.torque, success_ratio=cfg.success_ratio, max_failed_steps=1)
 
 
 def check_subset(des: xr.Dataset) -> np.ndarray:

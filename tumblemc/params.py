@@ -165,6 +165,9 @@ class SolverOptions:
     max_substep_depth : a failed step is retried as halves down to ``dt / 2**depth``.
     armijo : sufficient-decrease constant of the line search.
     min_step : smallest line-search step before a fallback.
+    max_failed_steps : stop the run after this many failed steps (0: never stop). Studies
+        use 1: a run with a failed step is invalid there anyway, and a step that fails at
+        the smallest sub-step leaves the rest of the step at that sub-step (costly).
     """
 
     tol: float = 1e-9
@@ -172,10 +175,11 @@ class SolverOptions:
     max_substep_depth: int = 8
     armijo: float = 1e-4
     min_step: float = 1e-10
+    max_failed_steps: int = 0
 
     def __post_init__(self) -> None:
         _check_number("tol", self.tol, _POSITIVE)
-        for name in ("max_iter", "max_substep_depth"):
+        for name in ("max_iter", "max_substep_depth", "max_failed_steps"):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
                 raise ValueError(f"{name}={v!r} is not allowed (allowed: an integer)")
@@ -183,6 +187,7 @@ class SolverOptions:
         _check_number("max_substep_depth", self.max_substep_depth, "", 0, 30)
         _check_number("armijo", self.armijo, "", 1e-12, 0.5)
         _check_number("min_step", self.min_step, "", 1e-16, 0.5)
+        _check_number("max_failed_steps", self.max_failed_steps, "", 0, 1e12)
 
     def as_array(self) -> np.ndarray:
         from .kernels import layout as L
@@ -193,6 +198,7 @@ class SolverOptions:
         a[L.O_MAXDEPTH] = self.max_substep_depth
         a[L.O_ARMIJO] = self.armijo
         a[L.O_MINSTEP] = self.min_step
+        a[L.O_MAXFAIL] = self.max_failed_steps
         return a
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import jit
-from .layout import N_REC, P_U, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK
+from .layout import N_REC, P_U, ST_STOPPED, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK
 from .stepper import run
 
 # ---- summary columns (one row per run) ----------------------------------------------
@@ -95,14 +95,16 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
             sub += rec[r, R_SUB]
             fb += rec[r, R_FALLBACK]
             pen = max(pen, rec[r, R_PEN])
-        if status != ST_OK:  # the stepper stops only on a non-finite state
-            code = BATCH_NONFINITE
+        if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
+            code = BATCH_FAILED_STEPS
+            prog = np.nan
+            prog_tot = np.nan
+        elif status != ST_OK or not (np.isfinite(prog) and np.isfinite(prog_tot)):
+            code = BATCH_NONFINITE  # the stepper stops otherwise only on a non-finite state
         elif failed > 0:
             code = BATCH_FAILED_STEPS
         else:
             code = BATCH_OK
-        if (code == BATCH_OK or code == BATCH_FAILED_STEPS) and not (np.isfinite(prog) and np.isfinite(prog_tot)):
-            code = BATCH_NONFINITE
         out[b, B_STATUS] = code
         out[b, B_FAILED] = failed
         out[b, B_PROGRESS] = prog

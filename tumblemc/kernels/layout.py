@@ -67,13 +67,15 @@ O_MAXIT = 1
 O_MAXDEPTH = 2
 O_ARMIJO = 3
 O_MINSTEP = 4
-N_OPT = 5
+O_MAXFAIL = 5  # stop the run after this many failed steps (0: never)
+N_OPT = 6
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0
 ST_MAXIT = 1
 ST_LINESEARCH = 2
 ST_NAN = 3
+ST_STOPPED = 4  # the run stopped after opts[O_MAXFAIL] failed steps
 
 # ---- record columns (one row per recorded instant) ----------------------------------
 R_T = 0

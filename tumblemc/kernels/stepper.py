@@ -25,6 +25,7 @@ from .layout import (
     N_REC,
     N_SC,
     O_MAXDEPTH,
+    O_MAXFAIL,
     O_MAXIT,
     P_ADHC,
     P_EB,
@@ -65,6 +66,7 @@ from .layout import (
     S_TM,
     ST_NAN,
     ST_OK,
+    ST_STOPPED,
 )
 from .newton import Workspace, solve
 from .residual import residual
@@ -371,7 +373,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     of the step (MODEL.md, numerical traps). Otherwise the full NCP is solved from the
     warm start. A step whose solve fails is retried as halved sub-steps down to
     ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
-    as failed. Returns ``ST_NAN`` if the state becomes non-finite.
+    as failed. Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
+    ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
     """
     state = state0
     n = z.shape[0]
@@ -398,6 +401,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     if touch0:
         touching[:] = 1
     maxdepth = int(opts[O_MAXDEPTH])
+    maxfail = int(opts[O_MAXFAIL])
     # plain and projected attempts that have not converged after FAST_MAXIT iterations
     # rarely do: move on to the next strategy (the smoothing continuation and sub-steps
     # keep max_iter)
@@ -581,6 +585,11 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     res = res_best
                     for i in range(n):
                         z[i] = zbest[i]
+                    if maxfail > 0 and failed_total + 1 >= maxfail:
+                        # the caller asked to give up (a study discards such runs anyway):
+                        # the rest of this step would run at the smallest sub-step
+                        status = ST_STOPPED
+                        break
             if res > acc_res:
                 acc_res = res
             if flight or hc != h or st != ST_OK:
@@ -623,7 +632,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         if step_failed:
             acc_fail += 1
             failed_total += 1
-        if status == ST_NAN:
+        if status == ST_NAN or status == ST_STOPPED:
             break
         if (step + 1) % record_every == 0 or step == n_steps - 1:
             row += 1
