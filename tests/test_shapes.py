@@ -18,7 +18,7 @@ from matplotlib.path import Path
 from scipy.spatial import ConvexHull, QhullError
 
 import tumblemc
-from tumblemc.shapes import SHAPES, Constraint, Shape, cuboid, curved, extruded, get_shape, spiked, spiked_ends
+from tumblemc.shapes import ARC_TOL_M, SHAPES, Constraint, Shape, cuboid, curved, extruded, get_shape, spiked, spiked_ends
 
 UM = 1e-6
 TIGHT = 1e-12  # relative: closed forms evaluated in floating point
@@ -148,7 +148,7 @@ def test_support_points_with_pad_bound_the_curved_hull_from_below() -> None:
     for ang in np.linspace(0, 2 * math.pi, 721):
         n = np.array([0.0, math.cos(ang), math.sin(ang)])
         assert (piece.support_points @ n).min() - piece.support_pad <= (dense @ n).min() + 1e-18
-    assert 0 < piece.support_pad <= 1.01e-9
+    assert 0 < piece.support_pad <= 1.01 * ARC_TOL_M
 
 
 def test_rest_pose_heights_and_adhering_areas() -> None:
@@ -334,7 +334,7 @@ def test_arcs_on_the_hull_and_a_partly_real_face() -> None:
     bottom = _face(shp, "-z face")
     assert bottom.area == pytest.approx(2 * A * T_MC, rel=1e-12) and not bottom.line
     assert _values(shp, _outline_3d(shp)).max() <= 1e-12 * A
-    assert 0 < shp.pieces[0].support_pad <= 1.01e-9
+    assert 0 < shp.pieces[0].support_pad <= 1.01 * ARC_TOL_M
 
 
 @pytest.mark.parametrize(

@@ -390,19 +390,25 @@ def provenance(cfg: StudyConfig, cjson: str, chash: str) -> dict[str, Any]:
 TIMESTAMP_ATTRS = ("history", "date_created")
 
 
-def assemble_runs(
-    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
-) -> xr.Dataset:
-    """The ``runs`` group: the design plus every run's outcome and the check subset."""
+def _with_outcomes(des: xr.Dataset, main: dict[str, np.ndarray], columns: dict[str, type], attrs: dict[str, dict[str, Any]]) -> xr.Dataset:
+    """The design plus the outcome ``columns`` of every run (checked to be complete)."""
     n = des.sizes["run"]
     runs = des.copy()
     if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
         raise RuntimeError("internal error: the shards do not hold every run of the study")
-    for k, dtype in OUTCOMES.items():
+    for k, dtype in columns.items():
         runs[k] = ("run", main[k].astype(dtype))
-        runs[k].attrs.update(OUTCOME_ATTRS[k])
+        runs[k].attrs.update(attrs[k])
     runs["error"] = ("run", main["error"].astype(str))
     runs["error"].attrs.update(OUTCOME_ATTRS["error"])
+    return runs
+
+
+def assemble_runs(
+    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
+) -> xr.Dataset:
+    """The ``runs`` group: the design plus every run's outcome and the check subset."""
+    runs = _with_outcomes(des, main, OUTCOMES, OUTCOME_ATTRS)
     runs["climbed"].attrs["ancillary_variables"] = "status progress_ratio"
     runs["progress_ratio"].attrs["ancillary_variables"] = "status"
     if len(check_idx):
@@ -448,14 +454,7 @@ def assemble_critical(
     """The ``runs`` group of a critical-incline study: the design, each sample's critical
     incline, and the monotonicity and numerical checks of the check subset."""
     n = des.sizes["run"]
-    runs = des.copy()
-    if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
-        raise RuntimeError("internal error: the shards do not hold every run of the study")
-    for k, dtype in CRITICAL_OUTCOMES.items():
-        runs[k] = ("run", main[k].astype(dtype))
-        runs[k].attrs.update(CRITICAL_ATTRS[k])
-    runs["error"] = ("run", main["error"].astype(str))
-    runs["error"].attrs.update(OUTCOME_ATTRS["error"])
+    runs = _with_outcomes(des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
     runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
     runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
     lo, hi = cfg.incline_range

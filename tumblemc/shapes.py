@@ -46,7 +46,7 @@ MASS_MODELS = ("profile", "aluminum_robot")
 #: allowed range of every dimension (m): anything outside is a unit mistake
 MIN_DIM_M, MAX_DIM_M = 1e-6, 1e-1
 #: default sampling sagitta of curved hull faces for the kernel's support points, m
-ARC_TOL_M = 1e-9
+ARC_TOL_M = 1e-8
 #: angular step of arcs in the plotted outline
 OUTLINE_STEP_RAD = math.radians(1.0)
 #: most vertices of a profile (its checks compare all pairs of edges)
