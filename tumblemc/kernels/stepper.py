@@ -156,35 +156,36 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, sc, R, tmp, tmp2):  # t
 def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
     """Lowest point of piece ``kp``: returns its height minus the pad; ``out`` receives the
     centroid (world) of the support points within ``tol`` of the lowest one, the
-    middle of the touching face or edge, a good first guess of the ECP.
-
-    Heights are ``n.x + (R^T n).p`` for body points ``p``: three products per point (a
-    curved piece has hundreds of support points)."""
-    nb0 = R[0, 0] * prm[P_N] + R[1, 0] * prm[P_N + 1] + R[2, 0] * prm[P_N + 2]
-    nb1 = R[0, 1] * prm[P_N] + R[1, 1] * prm[P_N + 1] + R[2, 1] * prm[P_N + 2]
-    nb2 = R[0, 2] * prm[P_N] + R[1, 2] * prm[P_N + 1] + R[2, 2] * prm[P_N + 2]
-    h0 = prm[P_N] * x[0] + prm[P_N + 1] * x[1] + prm[P_N + 2] * x[2]
+    middle of the touching face or edge, a good first guess of the ECP."""
     best = math.inf
     for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
-        hgt = h0 + nb0 * geo.sup_pts[p, 0] + nb1 * geo.sup_pts[p, 1] + nb2 * geo.sup_pts[p, 2]
+        hgt = 0.0
+        for i in range(3):
+            wi = x[i]
+            for j in range(3):
+                wi += R[i, j] * geo.sup_pts[p, j]
+            hgt += prm[P_N + i] * wi
         if hgt < best:
             best = hgt
-    c0 = 0.0
-    c1 = 0.0
-    c2 = 0.0
+    for i in range(3):
+        out[i] = 0.0
     cnt = 0
     for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
-        hgt = h0 + nb0 * geo.sup_pts[p, 0] + nb1 * geo.sup_pts[p, 1] + nb2 * geo.sup_pts[p, 2]
+        hgt = 0.0
+        for i in range(3):
+            wi = x[i]
+            for j in range(3):
+                wi += R[i, j] * geo.sup_pts[p, j]
+            hgt += prm[P_N + i] * wi
         if hgt <= best + tol:
             cnt += 1
-            c0 += geo.sup_pts[p, 0]
-            c1 += geo.sup_pts[p, 1]
-            c2 += geo.sup_pts[p, 2]
-    c0 /= cnt
-    c1 /= cnt
-    c2 /= cnt
+            for i in range(3):
+                wi = x[i]
+                for j in range(3):
+                    wi += R[i, j] * geo.sup_pts[p, j]
+                out[i] += wi
     for i in range(3):
-        out[i] = x[i] + R[i, 0] * c0 + R[i, 1] * c1 + R[i, 2] * c2
+        out[i] /= cnt
     return best - geo.sup_pad[kp]
 
 
