@@ -25,6 +25,7 @@ from __future__ import annotations
 import datetime as _dt
 import math
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -615,5 +616,11 @@ def local_client(workers: int | None = None) -> Any:
         os.environ.setdefault(var, "1")
     warm_kernels()
     n = int(workers or os.cpu_count() or 1)
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50)
+    # worker processes inherit an ignored SIGINT: Ctrl-C reaches only this process, which
+    # keeps the finished shards and shuts the cluster down (no traceback from each worker)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return Client(cluster)
