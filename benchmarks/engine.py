@@ -30,9 +30,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tumblemc.batch import simulate_rows  # noqa: E402
-from tumblemc.engine import _rows, grid_of, local_client, run_study, warm_kernels  # noqa: E402
-from tumblemc.sampling import design, load_config  # noqa: E402
+from tumblemc.batch import simulate_rows
+from tumblemc.engine import _rows, grid_of, local_client, run_study, warm_kernels
+from tumblemc.sampling import design, load_config
 
 
 def study(samples: int) -> dict:

@@ -16,14 +16,19 @@ from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
 ROOT = Path(__file__).resolve().parents[1]
 
 QUICKSTART = [
-    ("md", """# 01 Quickstart: one tumbling microrobot
+    (
+        "md",
+        """# 01 Quickstart: one tumbling microrobot
 
 tumblemc simulates a rigid magnetic microrobot tumbling under a rotating magnetic field on a
 flat or inclined substrate, with point, line and face contact, ellipsoidal friction and
 adhesion proportional to the contact area (Xie et al., IDETC 2019; conventions in MODEL.md).
 
-Here: simulate one robot, look at its gait, animate it, and compare the four shapes."""),
-    ("code", """import matplotlib
+Here: simulate one robot, look at its gait, animate it, and compare the four shapes.""",
+    ),
+    (
+        "code",
+        """import matplotlib
 matplotlib.use("Agg")  # plots are saved and shown inline below; works headless in CI
 from pathlib import Path
 from IPython.display import Image, display
@@ -32,62 +37,101 @@ import tumblemc
 from tumblemc.plotting import plot_run, plot_shapes
 
 out = Path("notebook_outputs")
-out.mkdir(exist_ok=True)"""),
-    ("md", """## One run
+out.mkdir(exist_ok=True)""",
+    ),
+    (
+        "md",
+        """## One run
 
 The paper robot (Table 1) on a 30 degree paper incline, 20 mT at 1 Hz, for two field
 periods. Every parameter of the preset can be overridden by name (here the friction
-coefficient). `simulate` returns an `xarray.Dataset` with units on every variable."""),
-    ("code", """ds = tumblemc.simulate(shape="cuboid", preset="paper", incline_deg=30.0,
+coefficient). `simulate` returns an `xarray.Dataset` with units on every variable.""",
+    ),
+    (
+        "code",
+        """ds = tumblemc.simulate(shape="cuboid", preset="paper", incline_deg=30.0,
                        field_mT=20.0, freq_hz=1.0, duration_s=2.0, mu=0.3)
-ds[["progress", "contact_mode", "adhesion_force", "newton_iterations"]]"""),
-    ("code", """summary = tumblemc.summarize(ds)
-{k: summary[k] for k in ("mean_speed", "ideal_speed", "progress_ratio", "climbed", "failed_steps")}"""),
-    ("md", """`progress_ratio` is the mean uphill speed after the first period over the no-slip speed
+ds[["progress", "contact_mode", "adhesion_force", "newton_iterations"]]""",
+    ),
+    (
+        "code",
+        """summary = tumblemc.summarize(ds)
+{k: summary[k] for k in ("mean_speed", "ideal_speed", "progress_ratio", "climbed", "failed_steps")}""",
+    ),
+    (
+        "md",
+        """`progress_ratio` is the mean uphill speed after the first period over the no-slip speed
 (hull perimeter x frequency); the robot *climbs* when it is at least 0.5.
 
 The run figure: progress against the no-slip line, the contact mode with the adhesion
 force (face contact adheres with the face's area, line contact with a small fraction),
-and side-view snapshots of the tumble."""),
-    ("code", """fig = plot_run(ds, out / "run.png")
-display(Image(filename=out / "run.png", width=800))"""),
-    ("md", """## Animate the tumble
+and side-view snapshots of the tumble.""",
+    ),
+    (
+        "code",
+        """fig = plot_run(ds, out / "run.png")
+display(Image(filename=out / "run.png", width=800))""",
+    ),
+    (
+        "md",
+        """## Animate the tumble
 
 A GIF side view: body outline, field direction, equivalent contact point and whether the
-contact adheres. (`tumblemc animate run.nc` does the same from a saved run.)"""),
-    ("code", """from tumblemc.animation import animate_run
+contact adheres. (`tumblemc animate run.nc` does the same from a saved run.)""",
+    ),
+    (
+        "code",
+        """from tumblemc.animation import animate_run
 
 gif = animate_run(ds, out / "tumble.gif", max_frames=40, fps=10)
-display(Image(filename=gif))"""),
-    ("md", """## Compare the four shapes
+display(Image(filename=gif))""",
+    ),
+    (
+        "md",
+        """## Compare the four shapes
 
 The shape library holds the paper's four robots (MODEL.md dimensions); each is its convex
 hull with the real material area of each hull face (line contact where a hull face only
 bridges edges). By default the new shapes take the aluminum robot's mass, inertia and
-magnetisation, as in the paper."""),
-    ("code", """plot_shapes(path=out / "shapes.png")
-display(Image(filename=out / "shapes.png", width=800))"""),
-    ("code", """rows = []
+magnetisation, as in the paper.""",
+    ),
+    (
+        "code",
+        """plot_shapes(path=out / "shapes.png")
+display(Image(filename=out / "shapes.png", width=800))""",
+    ),
+    (
+        "code",
+        """rows = []
 for shape in tumblemc.shapes.SHAPES:
     s = tumblemc.summarize(tumblemc.simulate(shape=shape, preset="aluminum", freq_hz=10.0, duration_s=0.4))
     rows.append((shape, round(s["mean_speed"] * 1e3, 2), round(s["progress_ratio"], 3)))
 print(f"{'shape':12s} {'mm/s':>6s} {'ratio':>6s}")
 for r in rows:
-    print(f"{r[0]:12s} {r[1]:6.2f} {r[2]:6.3f}")"""),
-    ("md", """At 10 Hz on flat aluminum the larger hull perimeters of the spiked and curved shapes
+    print(f"{r[0]:12s} {r[1]:6.2f} {r[2]:6.3f}")""",
+    ),
+    (
+        "md",
+        """At 10 Hz on flat aluminum the larger hull perimeters of the spiked and curved shapes
 give them more distance per revolution; `tumblemc validate` reproduces the paper's whole
-shape comparison with longer runs (docs/validation.md)."""),
+shape comparison with longer runs (docs/validation.md).""",
+    ),
 ]
 
 EXPLORE = [
-    ("md", """# 02 Explore a study's results
+    (
+        "md",
+        """# 02 Explore a study's results
 
 A robustness study (`tumblemc study run STUDY.toml`) writes one netCDF file with two groups:
 `runs` (one row per simulated robot: sampled parameters, outcome, status) and `maps`
 (success probability per shape x incline x substrate with confidence intervals). This
 notebook opens the small study shipped in `data/example.nc` (regenerate it with
-`tumblemc study run studies/example.toml --out data/example.nc --fresh`)."""),
-    ("code", """import matplotlib
+`tumblemc study run studies/example.toml --out data/example.nc --fresh`).""",
+    ),
+    (
+        "code",
+        """import matplotlib
 matplotlib.use("Agg")
 from pathlib import Path
 from IPython.display import Image, display
@@ -102,48 +146,84 @@ DATA = Path("..") / "data" / "example.nc"
 out = Path("notebook_outputs")
 out.mkdir(exist_ok=True)
 runs, maps = open_result(DATA)
-maps"""),
-    ("md", """The file is plain netCDF4 with CF attributes: `xarray.open_datatree` opens both groups
-at once, and every variable carries `units` and `long_name`."""),
-    ("code", """tree = xr.open_datatree(DATA)
+maps""",
+    ),
+    (
+        "md",
+        """The file is plain netCDF4 with CF attributes: `xarray.open_datatree` opens both groups
+at once, and every variable carries `units` and `long_name`.""",
+    ),
+    (
+        "code",
+        """tree = xr.open_datatree(DATA)
 print(tree.attrs["title"], "|", tree.attrs["tumblemc_version"], "| seed", tree.attrs["seed"])
 print({k: tree["maps"]["p_success"].attrs[k] for k in ("long_name", "units", "ancillary_variables")})
-tree.close()"""),
-    ("md", """## Slicing the maps
+tree.close()""",
+    ),
+    (
+        "md",
+        """## Slicing the maps
 
 `p_success` is the fraction of valid runs that climbed; `p_success_lower`/`_upper` are its
-95% Wilson interval (never of zero width, also at 0/N and N/N)."""),
-    ("code", """cub = maps.sel(shape="cuboid", substrate="aluminum")
+95% Wilson interval (never of zero width, also at 0/N and N/N).""",
+    ),
+    (
+        "code",
+        """cub = maps.sel(shape="cuboid", substrate="aluminum")
 for th in cub.incline_deg.values:
     c = cub.sel(incline_deg=th)
-    print(f"{th:4.0f} deg: p = {float(c.p_success):.2f}  [{float(c.p_success_lower):.2f}, {float(c.p_success_upper):.2f}]  n_valid = {int(c.n_valid)}")"""),
-    ("code", """plot_success_heatmap(maps, path=out / "heatmap.png")
-display(Image(filename=out / "heatmap.png", width=800))"""),
-    ("code", """plot_success_curves(maps, path=out / "curves.png")
-display(Image(filename=out / "curves.png", width=800))"""),
-    ("md", """## Back to the runs
+    print(f"{th:4.0f} deg: p = {float(c.p_success):.2f}  [{float(c.p_success_lower):.2f}, {float(c.p_success_upper):.2f}]  n_valid = {int(c.n_valid)}")""",
+    ),
+    (
+        "code",
+        """plot_success_heatmap(maps, path=out / "heatmap.png")
+display(Image(filename=out / "heatmap.png", width=800))""",
+    ),
+    (
+        "code",
+        """plot_success_curves(maps, path=out / "curves.png")
+display(Image(filename=out / "curves.png", width=800))""",
+    ),
+    (
+        "md",
+        """## Back to the runs
 
 Each run keeps its sampled parameters, so any question is a selection away: for instance,
 the friction coefficient of the cuboid runs on aluminum at 25 degrees that climbed and
-those that did not."""),
-    ("code", """sel = runs.where((runs.shape == "cuboid") & (runs.substrate == "aluminum") & (runs.incline_deg == 25), drop=True)
+those that did not.""",
+    ),
+    (
+        "code",
+        """sel = runs.where((runs.shape == "cuboid") & (runs.substrate == "aluminum") & (runs.incline_deg == 25), drop=True)
 ok = sel.status == 0
 for verdict in (1, 0):
     mu = sel.mu.where(ok & (sel.climbed == verdict), drop=True).values
-    print(f"climbed={verdict}: {mu.size} runs, mu {np.round(np.sort(mu), 3)}")"""),
-    ("code", """plot_ratio_distribution(runs, path=out / "ratios.png")
-display(Image(filename=out / "ratios.png", width=800))"""),
-    ("md", """## How good are the numbers?
+    print(f"climbed={verdict}: {mu.size} runs, mu {np.round(np.sort(mu), 3)}")""",
+    ),
+    (
+        "code",
+        """plot_ratio_distribution(runs, path=out / "ratios.png")
+display(Image(filename=out / "ratios.png", width=800))""",
+    ),
+    (
+        "md",
+        """## How good are the numbers?
 
 Two things bound the confidence in a map: sampling (the intervals above) and numerics.
 A random subset of runs was re-simulated at a 4x finer time step; the file stores the
-verdict agreement."""),
-    ("code", """from tumblemc.analysis import check_summary
-check_summary(runs)"""),
+verdict agreement.""",
+    ),
+    (
+        "code",
+        """from tumblemc.analysis import check_summary
+check_summary(runs)""",
+    ),
 ]
 
 SENSITIVITY = [
-    ("md", """# 03 Sensitivity: where does each shape stop climbing, and why?
+    (
+        "md",
+        """# 03 Sensitivity: where does each shape stop climbing, and why?
 
 Three questions on the shipped study files (`data/`, regenerated by the commands in
 `data/README.md`):
@@ -152,8 +232,11 @@ Three questions on the shipped study files (`data/`, regenerated by the commands
    found by bisection on the incline, gives P(climb theta) as a whole curve.
 2. **Which** uncertain parameter decides it? Rank correlations and a logistic regression
    on any study; Sobol indices, checked first on a function with a known answer.
-3. **In what region** of parameter space does it fail? A PRIM box search."""),
-    ("code", """import matplotlib
+3. **In what region** of parameter space does it fail? A PRIM box search.""",
+    ),
+    (
+        "code",
+        """import matplotlib
 matplotlib.use("Agg")
 from pathlib import Path
 from IPython.display import Image, display
@@ -168,42 +251,75 @@ from tumblemc.plotting_study import plot_prim, plot_sobol, plot_success_curves, 
 out = Path("notebook_outputs")
 out.mkdir(exist_ok=True)
 runs, maps = open_result(Path("..") / "data" / "example.nc")
-crit_runs, crit_maps = open_result(Path("..") / "data" / "example_critical.nc")"""),
-    ("md", """## 1. Critical incline per sample
+crit_runs, crit_maps = open_result(Path("..") / "data" / "example_critical.nc")""",
+    ),
+    (
+        "md",
+        """## 1. Critical incline per sample
 
 In `mode = "critical_incline"` one run is one parameter sample: the engine simulates both
 ends of the incline range and bisects. P(climb theta) is the fraction of samples whose
-critical incline is at least theta, with a Wilson band."""),
-    ("code", """print(crit_runs[["critical_incline_deg", "censored", "n_simulations"]].to_dataframe().groupby("shape").describe().T.round(2))
+critical incline is at least theta, with a Wilson band.""",
+    ),
+    (
+        "code",
+        """print(crit_runs[["critical_incline_deg", "censored", "n_simulations"]].to_dataframe().groupby("shape").describe().T.round(2))
 plot_success_curves(crit_maps, path=out / "critical_curves.png")
-display(Image(filename=out / "critical_curves.png", width=700))"""),
-    ("md", """The bisection assumes that a sample which climbs an incline climbs every gentler one.
-The engine checked it on a subset by simulating every grid incline directly:"""),
-    ("code", """a = crit_runs.attrs
+display(Image(filename=out / "critical_curves.png", width=700))""",
+    ),
+    (
+        "md",
+        """The bisection assumes that a sample which climbs an incline climbs every gentler one.
+The engine checked it on a subset by simulating every grid incline directly:""",
+    ),
+    (
+        "code",
+        """a = crit_runs.attrs
 print(f"{a['monotonicity_checked_samples']} samples checked at {crit_runs.sizes['check_incline_deg']} inclines: "
       f"disagreement rate {a['monotonicity_disagreement_rate']:.3f}, non-monotone samples {a['monotonicity_nonmonotone_samples']}")
-print(f"simulations: {a['simulations_total']} for the curve vs {a['simulations_grid_equivalent']} for the grid it replaces")"""),
-    ("md", """## 2. Which parameter decides?
+print(f"simulations: {a['simulations_total']} for the curve vs {a['simulations_grid_equivalent']} for the grid it replaces")""",
+    ),
+    (
+        "md",
+        """## 2. Which parameter decides?
 
 Rank correlation of each sampled parameter with the progress ratio, per cell (valid runs
-only), and a logistic regression of the binary outcome on standardized parameters."""),
-    ("code", """rc = sa.rank_correlation(runs)
-rc["rho"].sel(substrate="aluminum").to_dataframe()["rho"].unstack("parameter").round(2)"""),
-    ("md", """A binary outcome carries information only where it varies: the cells where some runs
-climb and some do not (the transition inclines)."""),
-    ("code", """mixed = [(str(s), str(p), float(t)) for s in maps.shape.values for p in maps.substrate.values for t in maps.incline_deg.values
+only), and a logistic regression of the binary outcome on standardized parameters.""",
+    ),
+    (
+        "code",
+        """rc = sa.rank_correlation(runs)
+rc["rho"].sel(substrate="aluminum").to_dataframe()["rho"].unstack("parameter").round(2)""",
+    ),
+    (
+        "md",
+        """A binary outcome carries information only where it varies: the cells where some runs
+climb and some do not (the transition inclines).""",
+    ),
+    (
+        "code",
+        """mixed = [(str(s), str(p), float(t)) for s in maps.shape.values for p in maps.substrate.values for t in maps.incline_deg.values
          if 0 < float(maps.p_success.sel(shape=s, substrate=p, incline_deg=t)) < 1]
 print("cells with both outcomes:", mixed)
 shape, substrate, theta = mixed[0]
 lg = sa.logistic_summary(runs)
-lg["coef"].sel(shape=shape, substrate=substrate, incline_deg=theta).to_pandas().round(2)"""),
-    ("code", """plot_success_vs_parameter(runs, shape, substrate, theta, path=out / "vs_parameter.png")
-display(Image(filename=out / "vs_parameter.png", width=800))"""),
-    ("md", """### Sobol indices, tested on a known answer first
+lg["coef"].sel(shape=shape, substrate=substrate, incline_deg=theta).to_pandas().round(2)""",
+    ),
+    (
+        "code",
+        """plot_success_vs_parameter(runs, shape, substrate, theta, path=out / "vs_parameter.png")
+display(Image(filename=out / "vs_parameter.png", width=800))""",
+    ),
+    (
+        "md",
+        """### Sobol indices, tested on a known answer first
 
 Variance-based indices need a dedicated Saltelli design. Before trusting the estimator on
-the robot, it must reproduce the closed-form indices of the Ishigami function:"""),
-    ("code", """d = sa.saltelli_design(2**11, 3, seed=1)
+the robot, it must reproduce the closed-form indices of the Ishigami function:""",
+    ),
+    (
+        "code",
+        """d = sa.saltelli_design(2**11, 3, seed=1)
 lo, hi = -np.pi, np.pi
 f = lambda U: ishigami(lo + (hi - lo) * U)
 idx = sa.sobol_indices(f(d.A), f(d.B), np.stack([f(ab) for ab in d.AB]), names=["x1", "x2", "x3"], n_boot=500)
@@ -212,19 +328,26 @@ for i, name in enumerate(["x1", "x2", "x3"]):
     print(f"{name}: S1 {float(idx.S1[i]):.3f} [{float(idx.S1_lower[i]):.3f}, {float(idx.S1_upper[i]):.3f}] exact {exact['S1'][i]:.3f};"
           f"  ST {float(idx.ST[i]):.3f} [{float(idx.ST_lower[i]):.3f}, {float(idx.ST_upper[i]):.3f}] exact {exact['ST'][i]:.3f}")
 plot_sobol(idx, out / "sobol_ishigami.png")
-display(Image(filename=out / "sobol_ishigami.png", width=600))"""),
-    ("md", """On the robot, `sa.sobol_rows(config, n, seed, shape, substrate, incline_deg)` builds the
+display(Image(filename=out / "sobol_ishigami.png", width=600))""",
+    ),
+    (
+        "md",
+        """On the robot, `sa.sobol_rows(config, n, seed, shape, substrate, incline_deg)` builds the
 `(n (d + 2))` runs of such a design from a study config; pass them to
 `tumblemc.batch.simulate_rows` and the progress ratios to `sa.sobol_indices`.
 
 ## 3. Where does it fail?
 
 PRIM peels the parameter box where the cell's valid runs failed to climb, trading
-coverage (share of all failures inside) for density (share of runs inside that fail)."""),
-    ("code", """box = sa.failure_region(runs, shape, substrate, theta)
+coverage (share of all failures inside) for density (share of runs inside that fail).""",
+    ),
+    (
+        "code",
+        """box = sa.failure_region(runs, shape, substrate, theta)
 print(f"{shape} on {substrate} at {theta} deg fails in {box.box}: coverage {box.coverage:.2f}, density {box.density:.2f}")
 plot_prim(box, out / "prim.png")
-display(Image(filename=out / "prim.png", width=600))"""),
+display(Image(filename=out / "prim.png", width=600))""",
+    ),
 ]
 
 

@@ -103,7 +103,9 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
             if not freq > 0:
                 raise ValueError(f"freq_hz={freq!r} is out of range (allowed: > 0 for a study)")
             dur = grid.periods / freq
-            spec = prepare(shp, duration_s=dur, dt=grid.dt, torque=grid.torque, solver=SolverOptions(max_failed_steps=grid.max_failed_steps), **kw)
+            spec = prepare(
+                shp, duration_s=dur, dt=grid.dt, torque=grid.torque, solver=SolverOptions(max_failed_steps=grid.max_failed_steps), **kw
+            )
         except (ValueError, TypeError) as exc:
             errors[i] = str(exc)
             continue
@@ -112,19 +114,19 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
     groups: dict[tuple[int, int, int], list[int]] = {}
     for i, spec in specs.items():
         i0 = round(grid.transient_periods / spec.freq_hz / spec.dt)
-        k, i0_row = _record_stride(spec.n_steps, i0)
-        groups.setdefault((spec.n_steps, k, i0_row), []).append(i)
+        stride, i0_row = _record_stride(spec.n_steps, i0)
+        groups.setdefault((spec.n_steps, stride, i0_row), []).append(i)
     n = n_unknowns(shp.geometry().pstart)
     ws, ws6 = make_workspace(n), make_workspace(6)
     geo = shp.geometry()
-    for (n_steps, k, i0_row), idx in sorted(groups.items()):
+    for (n_steps, stride, i0_row), idx in sorted(groups.items()):
         ss = [specs[i] for i in idx]
         prms = np.ascontiguousarray(np.stack([s.prm for s in ss]))
         states = np.ascontiguousarray(np.stack([s.state0 for s in ss]))
         hs = np.array([s.h for s in ss])
         area0 = np.array([s.shape.rest_face_area(s.params.line_contact_fraction) / s.units.area for s in ss])
         out = np.zeros((len(ss), KB.N_BATCH_OUT))
-        KB.run_batch(geo, prms, states, hs, area0, True, n_steps, k, i0_row, ss[0].solver.as_array(), ws, ws6, out)
+        KB.run_batch(geo, prms, states, hs, area0, True, n_steps, stride, i0_row, ss[0].solver.as_array(), ws, ws6, out)
         for j, (i, s) in enumerate(zip(idx, ss, strict=True)):
             o = out[j]
             status = int(o[KB.B_STATUS])

@@ -196,7 +196,11 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("--out", default=None, help="write the comparison table as CSV")
 
     what = "animate a saved run (side view GIF or MP4)"
-    an = sub.add_parser("animate", help=what, description="Animate a run written by `tumblemc simulate --out run.nc`: body outline, field arrow, contact point, adhesion.")
+    an = sub.add_parser(
+        "animate",
+        help=what,
+        description="Animate a run written by `tumblemc simulate --out run.nc`: body outline, field arrow, contact point, adhesion.",
+    )
     an.add_argument("run", help="netCDF of one run (tumblemc simulate --out)")
     an.add_argument("--out", default=None, help="GIF or MP4 path (default: the run's name with .gif)")
     an.add_argument("--fps", type=float, default=25.0, help="frames per second (default: 25)")
@@ -278,9 +282,9 @@ def _cmd_study(args: argparse.Namespace) -> int:
         from .io import open_result
         from .plotting_study import plot_study
 
-        res = Path(args.result)
-        runs, maps = open_result(res)
-        out_dir = Path(args.out) if args.out else res.with_name(res.stem + "_plots")
+        result = Path(args.result)
+        runs, maps = open_result(result)
+        out_dir = Path(args.out) if args.out else result.with_name(result.stem + "_plots")
         for path in plot_study(runs, maps, out_dir):
             print(f"wrote {path}")
         return EXIT_OK

@@ -111,7 +111,9 @@ def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, l
     return out
 
 
-def monotonicity_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, inclines: Sequence[float]) -> dict[str, np.ndarray]:
+def monotonicity_rows(
+    shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, inclines: Sequence[float] | np.ndarray
+) -> dict[str, np.ndarray]:
     """Verdicts of every row at every incline of ``inclines`` (the check of the
     monotonicity assumption): ``climbed`` and ``status`` of shape (rows, inclines)."""
     n, m = len(rows), len(inclines)
@@ -124,7 +126,7 @@ def monotonicity_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeG
     }
 
 
-def expand_to_grid(runs: xr.Dataset, inclines: Sequence[float]) -> xr.Dataset:
+def expand_to_grid(runs: xr.Dataset, inclines: Sequence[float] | np.ndarray) -> xr.Dataset:
     """Virtual grid runs of a critical-incline study: one per sample and incline, with
     ``climbed = critical_incline_deg >= incline`` (a sample failing at the range minimum
     climbs none), so that :func:`tumblemc.analysis.maps` gives ``P(climb theta)``."""

@@ -130,7 +130,7 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
 # --------------------------------------------------------------------------- planning
 
 
-def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int]) -> list[dict[str, Any]]:
+def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[dict[str, Any]]:
     """``simulate`` keywords of runs ``idx`` (a sampled ``field_mT`` replaces the cell's)."""
     names = cfg.uncertain_names
     cols = {k: des[k].values for k in ("substrate", "incline_deg", "field_mT", "freq_hz") if k in des.variables}
@@ -156,7 +156,14 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
         dt = dt / cfg.check.dt_factor
     # a run with a failed step is invalid in a study (status failed_steps): stop it there
     # instead of finishing it at the smallest sub-step
-    return TimeGrid(periods=cfg.periods, transient_periods=cfg.transient_periods, dt=dt, torque=cfg.torque, success_ratio=cfg.success_ratio, max_failed_steps=1)
+    return TimeGrid(
+        periods=cfg.periods,
+        transient_periods=cfg.transient_periods,
+        dt=dt,
+        torque=cfg.torque,
+        success_ratio=cfg.success_ratio,
+        max_failed_steps=1,
+    )
 
 
 def check_subset(des: xr.Dataset) -> np.ndarray:
@@ -361,10 +368,10 @@ def run_study(
 
 
 def _n_workers(client: Any) -> int:
-    try:
-        return max(1, len(client.scheduler_info()["workers"]))
-    except Exception:  # pragma: no cover - any client without that call
+    info = getattr(client, "scheduler_info", None)
+    if info is None:  # pragma: no cover - a client-like object without that call
         return 1
+    return max(1, len(info().get("workers", {})))
 
 
 def provenance(cfg: StudyConfig, cjson: str, chash: str) -> dict[str, Any]:

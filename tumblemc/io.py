@@ -11,6 +11,7 @@ with two groups, ``runs`` and ``maps``, and the folder is removed.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -79,12 +80,10 @@ class ShardStore:
     def write(self, kind: str, run: np.ndarray, outcome: dict[str, np.ndarray]) -> Path:
         """Write one finished batch: ``run`` indices and outcome columns (same length)."""
         name = f"{kind}-{int(run[0]):09d}-{len(run)}-{uuid.uuid4().hex[:8]}{SHARD_SUFFIX}"
-        arrays = {"run": np.asarray(run, dtype=np.int64)}
+        arrays: dict[str, Any] = {"run": np.asarray(run, dtype=np.int64)}
         for k, v in outcome.items():
             arrays[k] = np.asarray(v).astype(str) if np.asarray(v).dtype == object else np.asarray(v)
-        import io as _io
-
-        buf = _io.BytesIO()
+        buf = io.BytesIO()
         np.savez(buf, **arrays)
         path = self.dir / name
         _atomic_write_bytes(path, buf.getvalue())

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import jit
-from .layout import N_REC, P_U, ST_STOPPED, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK
+from .layout import N_REC, P_U, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
 from .stepper import run
 
 # ---- summary columns (one row per run) ----------------------------------------------
