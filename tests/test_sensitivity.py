@@ -297,3 +297,26 @@ def test_sensitivity_plots_write_png(tmp_path: Path) -> None:
     assert fig.axes
     for p in paths:
         assert p.stat().st_size > 1000, p
+
+
+def test_robot_sobol_end_to_end_small() -> None:
+    """The robot path runs and returns indices for every uncertain parameter (a smoke
+    test of the plumbing: n = 4 is far too small for meaningful values)."""
+    from tumblemc.sampling import load_config
+    from tumblemc.sensitivity import robot_sobol
+
+    cfg = load_config(
+        {
+            "name": "s",
+            "shapes": ["cuboid"],
+            "presets": ["paper"],
+            "incline_deg": [10],
+            "field_mT": 20,
+            "freq_hz": 10,
+            "samples": 1,
+            "seed": 1,
+        }
+    )
+    idx = robot_sobol(cfg, "cuboid", "paper", 10.0, n=4, n_boot=50)
+    assert list(idx["parameter"].values) == list(cfg.uncertain_names)
+    assert idx.attrs["n_used"] + idx.attrs["n_dropped"] == 4

@@ -332,9 +332,10 @@ display(Image(filename=out / "sobol_ishigami.png", width=600))""",
     ),
     (
         "md",
-        """On the robot, `sa.sobol_rows(config, n, seed, shape, substrate, incline_deg)` builds the
-`(n (d + 2))` runs of such a design from a study config; pass them to
-`tumblemc.batch.simulate_rows` and the progress ratios to `sa.sobol_indices`.
+        """On the robot, `sa.robot_sobol(config, shape, substrate, incline_deg, n=64)` runs such a
+design (`n (d + 2)` simulations, a few minutes for n = 64 and the four default
+uncertainties) and returns the indices of the progress ratio; `sa.sobol_rows` gives the
+design alone, to run it on a cluster.
 
 ## 3. Where does it fail?
 

@@ -262,6 +262,41 @@ def sobol_rows(
     return U, rows
 
 
+def robot_sobol(
+    config: StudyConfig,
+    shape: str,
+    substrate: str,
+    incline_deg: float,
+    *,
+    n: int = 64,
+    seed: int = 0,
+    outcome: str = "progress_ratio",
+    n_boot: int = 1000,
+    level: float = 0.95,
+) -> xr.Dataset:
+    """Sobol indices of a robot's ``outcome`` in one cell, end to end (in-process).
+
+    Builds :func:`sobol_rows`, simulates every row through the batch kernel with the
+    study's time grid (:func:`tumblemc.engine.grid_of`), and returns
+    :func:`sobol_indices` of ``outcome`` (``progress_ratio`` or ``mean_speed``). Cost:
+    ``n (d + 2)`` simulations (d uncertain parameters); runs that fail are dropped and
+    counted (``attrs["n_dropped"]``).
+    """
+    from .batch import simulate_rows
+    from .engine import grid_of
+
+    if outcome not in ("progress_ratio", "mean_speed"):
+        raise ValueError(f"outcome={outcome!r} is not allowed (allowed: progress_ratio, mean_speed)")
+    _, rows = sobol_rows(config, n, seed, shape, substrate, incline_deg)
+    drop = ("shape", "duration_s", "dt", "torque")
+    res = simulate_rows(shape, [{k: v for k, v in r.items() if k not in drop} for r in rows], grid_of(config))
+    y = np.where(res["status"] == 0, res[outcome], np.nan)
+    yA, yB, yAB = split_saltelli(y, len(config.uncertain))
+    out = sobol_indices(yA, yB, yAB, names=list(config.uncertain_names), n_boot=n_boot, level=level, seed=seed)
+    out.attrs.update({"shape": shape, "substrate": substrate, "incline_deg": float(incline_deg), "outcome": outcome, "n_base": n})
+    return out
+
+
 # ------------------------------------------------------------------------- Sobol indices
 
 
