@@ -303,3 +303,10 @@ def test_critical_incline_mode_brackets_and_checks(tmp_path: Path) -> None:
     assert 0.0 <= runs.attrs["monotonicity_disagreement_rate"] <= 1.0
     assert runs["check_grid_climbed"].shape == (2, 4)
     assert runs.attrs["simulations_total"] == int(runs["n_simulations"].sum())
+    from tumblemc.plotting_study import plot_study
+
+    pngs = plot_study(runs, maps, tmp_path / "plots")
+    assert [p.name for p in pngs] == ["success_curves.png", "critical_incline_distribution.png"]
+    assert all(p.stat().st_size > 0 for p in pngs)
+    st = study_status(res.path)
+    assert st["state"] == "complete" and st["done"] == 4

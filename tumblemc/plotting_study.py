@@ -296,12 +296,24 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    note = _check_note(runs)
-    figures = [
-        ("success_heatmap.png", plot_success_heatmap(maps)),
-        ("success_curves.png", plot_success_curves(maps)),
-        ("ratio_distribution.png", plot_ratio_distribution(runs)),
-    ]
+    if runs.attrs.get("mode") == "critical_incline":  # one run per sample, no incline grid
+        a = runs.attrs
+        note = (
+            f"monotonicity check: {a.get('monotonicity_checked_samples', 0)} samples, disagreement rate "
+            f"{a.get('monotonicity_disagreement_rate', float('nan')):.3f}; fine-dt verdicts agree in "
+            f"{100 * a.get('check_agreement_rate', float('nan')):.1f}%"
+        )
+        figures = [
+            ("success_curves.png", plot_success_curves(maps)),
+            ("critical_incline_distribution.png", plot_critical_distribution(runs)),
+        ]
+    else:
+        note = _check_note(runs)
+        figures = [
+            ("success_heatmap.png", plot_success_heatmap(maps)),
+            ("success_curves.png", plot_success_curves(maps)),
+            ("ratio_distribution.png", plot_ratio_distribution(runs)),
+        ]
     paths = []
     for name, fig in figures:
         if note:
@@ -309,6 +321,35 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
         _save(fig, out / name)
         paths.append(out / name)
     return paths
+
+
+def plot_critical_distribution(runs: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
+    """Histogram of the critical incline per shape, one panel per substrate, for a
+    ``mode = "critical_incline"`` study; samples outside the range are counted in the
+    legend (fails at the minimum / climbs at the maximum), invalid runs too."""
+    subs = sorted({str(v) for v in runs["substrate"].values})
+    shapes = sorted({str(v) for v in runs["shape"].values})
+    lo, hi = float(runs.attrs.get("incline_range_min", 0.0)), float(runs.attrs.get("incline_range_max", 60.0))
+    tol = float(runs.attrs.get("incline_tol", 1.0))
+    bins = np.arange(lo, hi + tol, max(tol, (hi - lo) / 40))
+    fig = Figure(figsize=(6.0 * len(subs), 4.0), layout="constrained")
+    axs = np.atleast_1d(fig.subplots(1, len(subs), squeeze=False)[0])
+    for ax, sub in zip(axs, subs, strict=True):
+        for j, shape in enumerate(shapes):
+            m = (runs["substrate"].values == sub) & (runs["shape"].values == shape)
+            ok = m & (runs["status"].values == 0)
+            crit = runs["critical_incline_deg"].values[ok & (runs["censored"].values == 0)]
+            n_lo = int(np.count_nonzero(ok & (runs["censored"].values == -1)))
+            n_hi = int(np.count_nonzero(ok & (runs["censored"].values == 1)))
+            n_bad = int(np.count_nonzero(m & ~ok))
+            label = f"{shape} (n={int(ok.sum())}; below range {n_lo}, above {n_hi}, invalid {n_bad})"
+            ax.hist(crit, bins=bins, histtype="step", lw=1.8, color=f"C{j}", label=label)
+        ax.set(xlabel="critical incline (deg)", ylabel="samples", title=f"substrate: {sub}", xlim=(lo, hi))
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+    if path is not None:
+        _save(fig, Path(path))
+    return fig
 
 
 # ------------------------------------------------------------------ sensitivity figures
