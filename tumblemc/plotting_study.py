@@ -298,7 +298,7 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     out.mkdir(parents=True, exist_ok=True)
     if runs.attrs.get("mode") == "critical_incline":  # one run per sample, no incline grid
         a = runs.attrs
-        note = (
+        note: str | None = (
             f"monotonicity check: {a.get('monotonicity_checked_samples', 0)} samples, disagreement rate "
             f"{a.get('monotonicity_disagreement_rate', float('nan')):.3f}; fine-dt verdicts agree in "
             f"{100 * a.get('check_agreement_rate', float('nan')):.1f}%"
