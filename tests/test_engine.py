@@ -310,3 +310,44 @@ def test_critical_incline_mode_brackets_and_checks(tmp_path: Path) -> None:
     assert all(p.stat().st_size > 0 for p in pngs)
     st = study_status(res.path)
     assert st["state"] == "complete" and st["done"] == 4
+
+
+def test_interrupted_fresh_run_resumes_over_an_old_result(reference: Path, tmp_path: Path) -> None:
+    """An old result of config A and the shards of an interrupted --fresh run of config B:
+    running B again (without --fresh) continues B instead of refusing."""
+    from tumblemc.io import ShardStore
+    from tumblemc.sampling import config_hash, config_to_json
+
+    out = tmp_path / "tiny.nc"
+    out.write_bytes(reference.read_bytes())
+    b = load_config(tiny(seed=1))
+    ShardStore(out, config_to_json(b), config_hash(b)).open()
+    res = run_study(tiny(seed=1), out=out, progress=False)
+    assert res.runs.attrs["config_hash"] == config_hash(b)
+
+
+def test_a_batch_that_raises_is_recorded_row_by_row(monkeypatch: pytest.MonkeyPatch) -> None:
+    import tumblemc.engine as eng
+
+    real = eng.simulate_rows
+
+    def flaky(shape: str, rows: Any, grid: TimeGrid) -> Any:
+        if any(r.get("mu") == 0.123 for r in rows):
+            raise RuntimeError("boom")
+        return real(shape, rows, grid)
+
+    monkeypatch.setattr(eng, "simulate_rows", flaky)
+    rows = ({"preset": "paper", "freq_hz": 10.0, "mu": 0.3}, {"preset": "paper", "freq_hz": 10.0, "mu": 0.123})
+    task = eng.Task("main", "k", "cuboid", (0, 1), rows, TimeGrid())
+    kind, run, out = eng.execute_task(task)
+    assert run.tolist() == [0, 1] and out["status"].tolist() == [0, 3]
+    assert "boom" in out["error"][1] and np.isnan(out["progress_ratio"][1])
+
+
+def test_critical_mode_needs_two_check_inclines_in_range() -> None:
+    from tumblemc.sampling import ConfigError
+
+    cfg = {"name": "c", "mode": "critical_incline", "shapes": ["cuboid"], "presets": ["paper"], "incline_deg": [30, 45],
+           "incline_range": {"min": 0, "max": 20}, "field_mT": 20, "freq_hz": 1, "samples": 2, "seed": 1}  # fmt: skip
+    with pytest.raises(ConfigError, match="incline_deg"):
+        load_config(cfg)

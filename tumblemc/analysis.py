@@ -333,13 +333,15 @@ def check_summary(runs: xr.Dataset) -> dict[str, Any]:
     if n == 0:
         return out
     if "check_agree" in runs.variables:
-        agree = np.asarray(runs["check_agree"].values).astype(bool)
+        flag = np.asarray(runs["check_agree"].values)
+        agree = flag[flag >= 0] == 1  # -1: not compared (a run at either dt is invalid)
+        out["n_not_compared"] = int(np.count_nonzero(flag < 0))
     elif "check_climbed_fine" in runs.variables:
         agree = np.asarray(runs["climbed"].values)[sel] == np.asarray(runs["check_climbed_fine"].values)
     else:
         agree = None
-    if agree is not None:
-        out["agreement_rate"] = float(np.count_nonzero(agree) / n)
+    if agree is not None and agree.size:
+        out["agreement_rate"] = float(np.count_nonzero(agree) / agree.size)
     if "check_status_fine" in runs.variables:
         out["n_fine_not_ok"] = int(np.count_nonzero(np.asarray(runs["check_status_fine"].values) != 0))
     if "check_progress_ratio_fine" in runs.variables:

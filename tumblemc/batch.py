@@ -38,7 +38,7 @@ OUTCOMES: dict[str, type] = {
 }
 
 STATUS_FLAGS = {
-    "flag_values": [KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR],
+    "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR], dtype=np.int8),
     "flag_meanings": "ok failed_steps nonfinite error",
 }
 

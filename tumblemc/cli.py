@@ -333,8 +333,12 @@ def _cmd_study(args: argparse.Namespace) -> int:
             from distributed import Client
 
             client = Client(args.scheduler)
-        elif args.workers != 0:
-            client = local_client(args.workers)
+        else:
+            from .sampling import load_config
+
+            workers = args.workers if args.workers is not None else load_config(args.config).execution.workers
+            if workers != 0:
+                client = local_client(workers)
         try:
             res = run_study(args.config, client, out=args.out, fresh=args.fresh, progress=not args.no_progress, batch_size=args.batch_size)
         except KeyboardInterrupt:

@@ -49,8 +49,8 @@ CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
     },
     "censored": {
         "units": "1",
-        "long_name": "critical incline outside incline_range",
-        "flag_values": [-1, 0, 1],
+        "long_name": "critical incline outside incline_range (meaningful where status is ok)",
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
         "flag_meanings": "fails_at_min bracketed climbs_at_max",
     },
     "n_simulations": {"units": "1", "long_name": "simulations used by the bisection"},
@@ -87,7 +87,10 @@ def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, l
 
     allr = np.arange(n)
     c_lo = sim(allr, np.full(n, lo))
-    c_hi = sim(allr, np.full(n, hi))
+    c_hi = np.zeros(n, dtype=bool)
+    up = np.flatnonzero(c_lo & (out["status"] == 0))  # only samples that climb the minimum
+    if len(up):
+        c_hi[up] = sim(up, np.full(len(up), hi))
     a = np.full(n, lo)
     b = np.full(n, hi)
     out["censored"][:] = np.where(~c_lo, -1, np.where(c_hi, 1, 0))
@@ -175,7 +178,7 @@ def compare_with_grid(crit_maps: xr.Dataset, grid_maps: xr.Dataset) -> xr.Datase
     out["agree"].attrs = {
         "units": "1",
         "long_name": "confidence intervals of the two estimates overlap",
-        "flag_values": [0, 1],
+        "flag_values": np.array([0, 1], dtype=np.int8),
         "flag_meanings": "no yes",
     }
     return out

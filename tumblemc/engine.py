@@ -23,6 +23,7 @@ Guarantees
 from __future__ import annotations
 
 import datetime as _dt
+import json
 import math
 import os
 import signal
@@ -30,6 +31,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -41,7 +43,7 @@ from . import __version__
 from .analysis import maps as make_maps
 from .batch import OUTCOMES, STATUS_FLAGS, TimeGrid, simulate_rows
 from .critical import CRITICAL_ATTRS, CRITICAL_OUTCOMES, bisect_rows, expand_to_grid, monotonicity_rows
-from .io import ShardStore, StudyStateError, open_result, result_attrs, write_result
+from .io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
 from .sampling import StudyConfig, config_hash, config_to_json, design, load_config, sampled_name
 from .simulate import DEFAULT_DT
 
@@ -52,7 +54,7 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "climbed": {
         "units": "1",
         "long_name": "run succeeded: status ok and progress_ratio >= success_ratio",
-        "flag_values": [0, 1],
+        "flag_values": np.array([0, 1], dtype=np.int8),
         "flag_meanings": "no yes",
     },
     "status": {"units": "1", "long_name": "run status", **STATUS_FLAGS},
@@ -93,7 +95,36 @@ class Task:
 
 
 def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
-    """Run one batch (the function every dask task calls)."""
+    """Run one batch (the function every dask task calls). A batch that raises is rerun
+    row by row; a row that still raises is recorded with status ``error`` and the
+    message, so one bad run never stops a study."""
+    try:
+        return _execute_task(task)
+    except Exception:  # noqa: BLE001 - any failure of a run is data, not a crash
+        if len(task.run) == 1:
+            return _error_result(task)
+        parts = [execute_task(dataclasses.replace(task, run=(r,), rows=(row,))) for r, row in zip(task.run, task.rows, strict=True)]
+        return task.kind, np.asarray(task.run, dtype=np.int64), {k: np.concatenate([p[2][k] for p in parts]) for k in parts[0][2]}
+
+
+def _error_result(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
+    import traceback
+
+    msg = traceback.format_exc(limit=2).strip().splitlines()[-1]
+    cols = CRITICAL_OUTCOMES if (task.mode != "grid" and task.kind == "main") else OUTCOMES
+    out: dict[str, np.ndarray] = {}
+    for k, dt in cols.items():
+        out[k] = np.full(1, np.nan) if np.dtype(dt).kind == "f" else np.zeros(1, dt)
+    out["status"][:] = 3
+    out["error"] = np.array([f"internal error: {msg}"], dtype=object)
+    if task.mode != "grid" and task.kind == "check":  # the check columns of a critical study
+        m = len(task.inclines)
+        out = {"grid_climbed": np.zeros((1, m), np.int8), "grid_status": np.full((1, m), 3, np.int8), "pair_incline": np.full((1, 2), np.nan),
+               "pair_climbed": np.zeros((1, 2), np.int8), "pair_climbed_fine": np.zeros((1, 2), np.int8), "pair_status_fine": np.full((1, 2), 3, np.int8)}  # fmt: skip
+    return task.kind, np.asarray(task.run, dtype=np.int64), out
+
+
+def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     run = np.asarray(task.run, dtype=np.int64)
     if task.mode == "grid":
         return task.kind, run, simulate_rows(task.shape, task.rows, task.grid)
@@ -109,19 +140,22 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
     th = np.asarray(task.inclines, dtype=float)
     mono = monotonicity_rows(task.shape, task.rows, task.grid, th)
     n = len(task.rows)
-    pair = np.zeros((n, 2))
+    # th is sorted (plan): the pair is the last climbing and the first failing grid incline
+    ij = np.zeros((n, 2), np.int64)
     for i in range(n):
         fails = np.flatnonzero(mono["climbed"][i] == 0)
         k = int(fails[0]) if len(fails) else len(th) - 1
-        pair[i] = (th[max(k - 1, 0)], th[k])
+        ij[i] = (max(k - 1, 0), k)
+    pair = th[ij]
     assert task.fine is not None
     fine = simulate_rows(task.shape, [dict(r, incline_deg=float(t)) for r, p in zip(task.rows, pair, strict=True) for t in p], task.fine)
-    coarse = np.array([[mono["climbed"][i][np.searchsorted(th, t)] for t in pair[i]] for i in range(n)], dtype=np.int8)
+    rows_i = np.arange(n)[:, None]
     return {
         "grid_climbed": mono["climbed"],
         "grid_status": mono["status"],
         "pair_incline": pair,
-        "pair_climbed": coarse.reshape(n, 2),
+        "pair_climbed": mono["climbed"][rows_i, ij].astype(np.int8),
+        "pair_status": mono["status"][rows_i, ij].astype(np.int8),
         "pair_climbed_fine": fine["climbed"].reshape(n, 2),
         "pair_status_fine": fine["status"].reshape(n, 2),
     }
@@ -195,7 +229,7 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
             tasks.append(
                 Task(
                     kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid_of(cfg), cfg.mode, lo, hi, cfg.incline_tol,
-                    tuple(t for t in cfg.incline_deg if lo <= t <= hi), grid_of(cfg, fine=True),
+                    tuple(sorted(t for t in cfg.incline_deg if lo <= t <= hi)), grid_of(cfg, fine=True),
                 )
             )  # fmt: skip
         start = stop
@@ -322,9 +356,10 @@ def run_study(
             if progress:
                 print(f"{path} is complete ({runs.sizes['run']} runs); nothing to do", file=sys.stderr)
             return StudyResult(runs, maps, path)
-        raise StudyStateError(
-            f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); use --fresh (fresh=True) to replace it, or another --out"
-        )
+        if _parts_hash(path) != chash:  # an interrupted run of this config may replace it
+            raise StudyStateError(
+                f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); use --fresh (fresh=True) to replace it, or another --out"
+            )
     path.parent.mkdir(parents=True, exist_ok=True)
     store = ShardStore(path, cjson, chash)
     store.open(fresh=fresh)
@@ -333,6 +368,8 @@ def run_study(
     n = des.sizes["run"]
     check_idx = check_subset(des)
     bs = int(batch_size or cfg.execution.batch_size)
+    if client is not None and not (max_in_flight or cfg.execution.max_in_flight):
+        client.wait_for_workers(1)  # a cluster that is still starting has no workers yet
     mif = int(max_in_flight or cfg.execution.max_in_flight or (4 * _n_workers(client) if client is not None else 1))
     todo_main = np.setdiff1d(np.arange(n), store.done("main"))
     todo_check = np.setdiff1d(check_idx, store.done("check"))
@@ -365,6 +402,15 @@ def run_study(
     write_result(path, runs, maps, attrs)
     store.remove()
     return StudyResult(runs, maps, path)
+
+
+def _parts_hash(path: Path) -> str | None:
+    """Config hash of the shard folder of ``path``, if there is one."""
+    meta = parts_dir(path) / "study.json"
+    try:
+        return str(json.loads(meta.read_text())["config_hash"])
+    except (OSError, ValueError, KeyError):
+        return None
 
 
 def _n_workers(client: Any) -> int:
@@ -421,6 +467,8 @@ def assemble_runs(
     runs["progress_ratio"].attrs["ancillary_variables"] = "status"
     if len(check_idx):
         pos = np.searchsorted(check["run"], check_idx)
+        if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
+            raise RuntimeError("internal error: the shards do not hold every check run of the study")
         fine_ratio = check["progress_ratio"][pos]
         fine_climbed = check["climbed"][pos].astype(np.int8)
         runs["check_run"] = ("check", check_idx)
@@ -429,22 +477,29 @@ def assemble_runs(
         runs["check_progress_ratio_fine"].attrs.update({"units": "1", "long_name": "progress ratio of the re-simulation at the finer dt"})
         runs["check_climbed_fine"] = ("check", fine_climbed)
         runs["check_climbed_fine"].attrs.update(
-            {"units": "1", "long_name": "verdict of the re-simulation at the finer dt", "flag_values": [0, 1], "flag_meanings": "no yes"}
+            {
+                "units": "1",
+                "long_name": "verdict of the re-simulation at the finer dt",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "no yes",
+            }
         )
         runs["check_status_fine"] = ("check", check["status"][pos].astype(np.int8))
         runs["check_status_fine"].attrs.update({"units": "1", "long_name": "status of the re-simulation at the finer dt", **STATUS_FLAGS})
-        agree = (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8)
+        compared = (check["status"][pos] == 0) & (runs["status"].values[check_idx] == 0)
+        agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
         runs["check_agree"].attrs.update(
             {
                 "units": "1",
-                "long_name": "verdict at the study dt equals the verdict at the finer dt",
-                "flag_values": [0, 1],
-                "flag_meanings": "no yes",
+                "long_name": "verdict at the study dt equals the verdict at the finer dt (compared only where both runs are valid)",
+                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                "flag_meanings": "not_compared no yes",
             }
         )
         d = np.abs(fine_ratio - runs["progress_ratio"].values[check_idx])
-        runs.attrs["check_agreement_rate"] = float(agree.mean())
+        runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
+        runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
         runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
         runs.attrs["check_max_abs_ratio_diff"] = float(np.nanmax(d)) if np.isfinite(d).any() else math.nan
         runs = runs.assign_coords(check=np.arange(len(check_idx)))
@@ -466,7 +521,7 @@ def assemble_critical(
     runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
     runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
     lo, hi = cfg.incline_range
-    th = np.array([t for t in cfg.incline_deg if lo <= t <= hi])
+    th = np.array(sorted(t for t in cfg.incline_deg if lo <= t <= hi))
     runs.attrs.update(
         {
             "mode": cfg.mode,
@@ -479,6 +534,8 @@ def assemble_critical(
     runs.attrs["dt"] = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
     if len(check_idx):
         pos = np.searchsorted(check["run"], check_idx)
+        if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
+            raise RuntimeError("internal error: the shards do not hold every check run of the study")
         g = check["grid_climbed"][pos].astype(np.int8)
         gs = check["grid_status"][pos].astype(np.int8)
         crit = runs["critical_incline_deg"].values[check_idx]
@@ -498,7 +555,7 @@ def assemble_critical(
             {
                 "units": "1",
                 "long_name": "verdict of a direct simulation at the grid incline",
-                "flag_values": [0, 1],
+                "flag_values": np.array([0, 1], dtype=np.int8),
                 "flag_meanings": "no yes",
             }
         )
@@ -511,7 +568,7 @@ def assemble_critical(
             {
                 "units": "1",
                 "long_name": "direct verdict differs from incline <= critical_incline_deg",
-                "flag_values": [0, 1],
+                "flag_values": np.array([0, 1], dtype=np.int8),
                 "flag_meanings": "agree disagree",
             }
         )
@@ -520,20 +577,20 @@ def assemble_critical(
             {
                 "units": "1",
                 "long_name": "sample climbs a grid incline steeper than one it fails",
-                "flag_values": [0, 1],
+                "flag_values": np.array([0, 1], dtype=np.int8),
                 "flag_meanings": "monotone nonmonotone",
             }
         )
         pc, pf = check["pair_climbed"][pos].astype(np.int8), check["pair_climbed_fine"][pos].astype(np.int8)
-        pok = check["pair_status_fine"][pos] == 0
-        agree = np.all((pc == pf) | ~pok, axis=1).astype(np.int8)
+        compared = np.all((check["pair_status_fine"][pos] == 0) & (check["pair_status"][pos] == 0), axis=1)
+        agree = np.where(compared, np.all(pc == pf, axis=1).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
         runs["check_agree"].attrs.update(
             {
                 "units": "1",
-                "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor",
-                "flag_values": [0, 1],
-                "flag_meanings": "no yes",
+                "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor (compared only where all four runs are valid)",
+                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                "flag_meanings": "not_compared no yes",
             }
         )
         runs["check_climbed_fine"] = (("check", "pair"), pf)
@@ -548,7 +605,8 @@ def assemble_critical(
         runs.attrs["monotonicity_disagreement_rate"] = float(dis.sum() / n_ok) if n_ok else math.nan
         runs.attrs["monotonicity_nonmonotone_samples"] = int(nonmono.sum())
         runs.attrs["monotonicity_checked_samples"] = len(check_idx)
-        runs.attrs["check_agreement_rate"] = float(agree.mean())
+        runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
+        runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
     runs.attrs["simulations_total"] = int(runs["n_simulations"].sum())
     runs.attrs["simulations_grid_equivalent"] = int(n * len(th))
     return runs
@@ -594,7 +652,7 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
         "total": int(runs.sizes["run"]),
         "failed": int(np.count_nonzero(st != 0)),
     }
-    for k in ("check_agreement_rate", "check_median_abs_ratio_diff", "check_max_abs_ratio_diff", "check_dt_factor"):
+    for k in ("check_agreement_rate", "check_not_compared", "check_median_abs_ratio_diff", "check_max_abs_ratio_diff", "check_dt_factor"):
         if k in runs.attrs:
             out[k] = runs.attrs[k]
     if "check_run" in runs:

@@ -34,6 +34,20 @@ def parts_dir(result: Path) -> Path:
     return result.with_name(result.name + ".parts")
 
 
+def _fsync_dir(folder: Path) -> None:
+    """Make a rename in ``folder`` durable (POSIX; a no-op where directories cannot be opened)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:  # pragma: no cover - e.g. Windows
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # pragma: no cover
+        pass
+    finally:
+        os.close(fd)
+
+
 def _atomic_write_bytes(path: Path, data: bytes) -> None:
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     with open(tmp, "wb") as fh:
@@ -125,7 +139,10 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
     for group, ds in (("runs", runs), ("maps", maps)):
         enc = {v: {"zlib": True, "complevel": 4} for v in ds.data_vars if ds[v].dtype.kind in "fiub"}
         ds.to_netcdf(tmp, mode="a", group=group, engine="netcdf4", encoding=enc)
+    with open(tmp, "rb") as fh:  # on disk before the shards it replaces are removed
+        os.fsync(fh.fileno())
     os.replace(tmp, path)
+    _fsync_dir(path.parent)
 
 
 def open_result(path: str | Path) -> tuple[xr.Dataset, xr.Dataset]:

@@ -8,9 +8,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import xarray as xr
 
-CONTACT_MODE_FLAGS = {"flag_values": [0, 1, 2], "flag_meanings": "none point_or_line face"}
+CONTACT_MODE_FLAGS = {"flag_values": np.array([0, 1, 2], dtype=np.int8), "flag_meanings": "none point_or_line face"}
 
 RUN_VARIABLES: dict[str, dict[str, Any]] = {
     "time": {"units": "s", "long_name": "time since the start of the run"},

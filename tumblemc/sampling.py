@@ -782,6 +782,15 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
     if not inc_max > inc_min:
         raise _bad("incline_range.max", inc_max, "is not above incline_range.min", f"a number > {inc_min:g}")
     inc_tol = _num("incline_tol", d.get("incline_tol", 0.5), 1e-3, 90.0)
+    if mode == "critical_incline":
+        inside = [t for t in incline if inc_min <= t <= inc_max]
+        if len(inside) < 2:
+            raise _bad(
+                "incline_deg",
+                list(incline),
+                f"has {len(inside)} incline(s) inside incline_range [{inc_min:g}, {inc_max:g}]",
+                "at least 2 there: they are the grid of the monotonicity check",
+            )
 
     periods = _num("periods", d.get("periods", 2.0), 2.0, 1e6)
     transient = _num("transient_periods", d.get("transient_periods", 1.0), 0.0, 1e6)
