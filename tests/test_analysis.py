@@ -139,7 +139,7 @@ def test_maps_layout_and_metadata(study_maps: xr.Dataset) -> None:
             assert "long_name" in m[name].attrs
             continue
         assert "units" in m[name].attrs and "long_name" in m[name].attrs, name
-    assert m["p_success"].attrs["ancillary_variables"] == "p_success_lower p_success_upper n_valid"
+    assert m["p_success"].attrs["ancillary_variables"] == "p_success_lower p_success_upper n_valid n_failed"
     for name in ("p_success_lower", "p_success_upper"):
         assert m[name].attrs["ci_method"] == "wilson" and m[name].attrs["confidence_level"] == 0.95
     for name in ("n_success", "n_valid", "n_failed", "n_runs"):
@@ -242,3 +242,17 @@ def test_plots_with_swept_field(tmp_path: Path) -> None:
         fig = func(arg, path=tmp_path / f"{func.__name__}.png")
         assert len([ax for ax in fig.axes if ax.get_title()]) == 2 * len(SUBSTRATES)
         assert (tmp_path / f"{func.__name__}.png").stat().st_size > 0
+
+
+def test_bounds_with_invalid_runs_bracket_p() -> None:
+    """Counting invalid runs as failures / successes brackets the range they leave open."""
+    runs = synthetic_runs(seed=3, per_cell=20)
+    m = maps(runs)
+    n_s, n_r, n_f = (m[k].values.astype(float) for k in ("n_success", "n_runs", "n_failed"))
+    ok = n_r > 0
+    np.testing.assert_allclose(m["p_success_invalid_as_failure"].values[ok], (n_s / n_r)[ok])
+    np.testing.assert_allclose(m["p_success_invalid_as_success"].values[ok], ((n_s + n_f) / n_r)[ok])
+    p = m["p_success"].values
+    both = ok & np.isfinite(p)
+    assert np.all(m["p_success_invalid_as_failure"].values[both] <= p[both] + 1e-12)
+    assert np.all(p[both] <= m["p_success_invalid_as_success"].values[both] + 1e-12)

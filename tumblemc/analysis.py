@@ -44,13 +44,21 @@ MAP_VARIABLES: dict[str, dict[str, str]] = {
     "p_success": {
         "units": "1",
         "long_name": "fraction of valid runs that climbed (n_success / n_valid)",
-        "ancillary_variables": "p_success_lower p_success_upper n_valid",
+        "ancillary_variables": "p_success_lower p_success_upper n_valid n_failed",
     },
     "p_success_lower": {"units": "1", "long_name": "lower bound of the confidence interval of p_success"},
     "p_success_upper": {"units": "1", "long_name": "upper bound of the confidence interval of p_success"},
     "n_success": {"units": "1", "long_name": "number of valid runs that climbed"},
     "n_valid": {"units": "1", "long_name": "number of valid runs (status ok)"},
     "n_failed": {"units": "1", "long_name": "number of runs that are not valid (status not ok)"},
+    "p_success_invalid_as_failure": {
+        "units": "1",
+        "long_name": "fraction of all runs that climbed, counting invalid runs as failures (n_success / n_runs)",
+    },
+    "p_success_invalid_as_success": {
+        "units": "1",
+        "long_name": "fraction of all runs, counting invalid runs as successes ((n_success + n_failed) / n_runs)",
+    },
     "n_runs": {"units": "1", "long_name": "number of runs"},
     "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs"},
     "progress_ratio_quantile": {"units": "1", "long_name": "quantiles of the progress ratio over valid runs"},
@@ -254,8 +262,16 @@ def maps(
 
     ci_attrs = {"ci_method": method, "confidence_level": float(level)}
     pct = f"{100 * float(level):g}%"
+    n_bad = (n_runs - n_valid).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # what p would be if every invalid run had failed / had succeeded: the range the
+        # invalid runs leave open (they are not a random subset where the robot slides fast)
+        p_bad_fail = np.where(n_runs > 0, n_success / np.maximum(n_runs, 1), np.nan)
+        p_bad_success = np.where(n_runs > 0, (n_success + n_bad) / np.maximum(n_runs, 1), np.nan)
     data = {
         "p_success": (dims, grid(p)),
+        "p_success_invalid_as_failure": (dims, grid(p_bad_fail)),
+        "p_success_invalid_as_success": (dims, grid(p_bad_success)),
         "p_success_lower": (dims, grid(np.asarray(lo, dtype=np.float64))),
         "p_success_upper": (dims, grid(np.asarray(hi, dtype=np.float64))),
         "n_success": (dims, grid(n_success)),

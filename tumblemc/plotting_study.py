@@ -114,6 +114,7 @@ def plot_success_heatmap(
             p = m["p_success"].values
             lo, hi = m["p_success_lower"].values, m["p_success_upper"].values
             nv = m["n_valid"].values
+            nf = m["n_failed"].values
             mesh = ax.pcolormesh(
                 np.arange(nx + 1) - 0.5,
                 np.arange(ny + 1) - 0.5,
@@ -129,7 +130,10 @@ def plot_success_heatmap(
                     ax.text(i, j, "no valid\nruns", ha="center", va="center", fontsize=fontsize - 1, color="0.3")
                     continue
                 colour = "w" if p[j, i] < 0.55 else "k"
-                ax.text(i, j, f"{p[j, i]:.2f}\n[{lo[j, i]:.2f}, {hi[j, i]:.2f}]", ha="center", va="center", fontsize=fontsize, color=colour)
+                text = f"{p[j, i]:.2f}\n[{lo[j, i]:.2f}, {hi[j, i]:.2f}]"
+                if nf[j, i] > 0:  # invalid runs are left out of p: say how many
+                    text += f"\n{int(nf[j, i])} invalid"
+                ax.text(i, j, text, ha="center", va="center", fontsize=fontsize, color=colour)
             ax.set_xticks(np.arange(nx), [f"{v:g}" for v in incl])
             ax.set_yticks(np.arange(ny), shapes)
             ax.set_xlim(-0.5, nx - 0.5)
