@@ -93,12 +93,15 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # start; 1: a fresh contact guess at the predicted pose (ECP in the middle of the lowest
 # face within RESTART_TOL) keeping the forces of touching blocks; 2: a fresh guess at the
 # lowest vertex (or exactly tied edge) with impact and predicted-sliding forces; 3: the
-# face of guess 1 with those forces (a face slapping down while sliding). Then plain, projected or
-# smoothed Newton.
-STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False)
-STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1)  # first mu
-N_ATTEMPTS = 12
+# face of guess 1 with those forces (a face slapping down while sliding); 5, 6, 7: guesses
+# 1, 2, 3 with the velocities started at zero instead of the pre-impact ones (a violent
+# impact after flight: the smoothed Newton from the incoming velocity can stall where it
+# converges from rest). Then plain, projected or smoothed Newton. The zero-velocity
+# attempts come after every other one, so steps that converge without them are unchanged.
+STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False)
+STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1)  # first mu
+N_ATTEMPTS = 17
 FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
 SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
@@ -509,6 +512,10 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         # fresh contact guess at the predicted end pose (STRATEGY_GUESS)
                         for i in range(n):
                             z[i] = zsave[i]
+                        if guess >= 5:
+                            guess -= 4
+                            for i in range(6):
+                                z[i] = 0.0
                         quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
                         quat_to_rot(qn, R)
                         for i in range(3):
