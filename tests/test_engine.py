@@ -351,3 +351,28 @@ def test_critical_mode_needs_two_check_inclines_in_range() -> None:
            "incline_range": {"min": 0, "max": 20}, "field_mT": 20, "freq_hz": 1, "samples": 2, "seed": 1}  # fmt: skip
     with pytest.raises(ConfigError, match="incline_deg"):
         load_config(cfg)
+
+
+def test_a_critical_check_task_that_raises_keeps_every_column(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The error row of a critical study's check task has the same columns as a normal one
+    (the shards of a task are concatenated column by column)."""
+    import tumblemc.engine as eng
+
+    def boom(*args: Any, **kw: Any) -> Any:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(eng, "monotonicity_rows", boom)
+    rows = ({"preset": "paper", "freq_hz": 10.0}, {"preset": "paper", "freq_hz": 10.0})
+    task = eng.Task("check", "k", "cuboid", (3, 4), rows, TimeGrid(), "critical_incline", 0.0, 40.0, 5.0, (0.0, 20.0, 40.0), TimeGrid())
+    _, run, out = eng.execute_task(task)
+    assert run.tolist() == [3, 4] and set(out) == set(eng.CHECK_COLUMNS)
+    assert out["grid_status"].shape == (2, 3) and np.all(out["grid_status"] == 3)
+    assert out["pair_status"].shape == (2, 2) and np.all(out["pair_status"] == 3)
+
+
+def test_batch_row_with_lift_equals_simulate() -> None:
+    row = {"preset": "paper", "incline_deg": 0.0, "freq_hz": 10.0, "lift_m": 20e-6}
+    res = simulate_rows("cuboid", [row], TimeGrid())
+    s = tumblemc.summarize(tumblemc.simulate(duration_s=0.2, **row))
+    assert res["status"][0] == s["status"] == 0
+    assert res["progress_ratio"][0] == pytest.approx(s["progress_ratio"], rel=1e-12, abs=1e-12)

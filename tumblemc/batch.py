@@ -19,9 +19,10 @@ import numpy as np
 from .kernels import batch as KB
 from .kernels.newton import make_workspace
 from .kernels.residual import n_unknowns
+from .kernels.stepper import empty_record
 from .params import SolverOptions
 from .shapes import Shape, get_shape
-from .simulate import RunSpec, prepare
+from .simulate import RunSpec, initial_contact, prepare
 
 #: outcome columns of :func:`simulate_rows`, with their dtypes
 OUTCOMES: dict[str, type] = {
@@ -95,6 +96,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
     res["status"][:] = KB.BATCH_ERROR
     errors = np.full(nrow, "", dtype=object)
     specs: dict[int, RunSpec] = {}
+    solver = SolverOptions(max_failed_steps=grid.max_failed_steps)
     for i, row in enumerate(rows):
         kw = dict(row)
         freq = kw.get("freq_hz", 1.0)
@@ -103,9 +105,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
             if not freq > 0:
                 raise ValueError(f"freq_hz={freq!r} is out of range (allowed: > 0 for a study)")
             dur = grid.periods / freq
-            spec = prepare(
-                shp, duration_s=dur, dt=grid.dt, torque=grid.torque, solver=SolverOptions(max_failed_steps=grid.max_failed_steps), **kw
-            )
+            spec = prepare(shp, duration_s=dur, dt=grid.dt, torque=grid.torque, solver=solver, **kw)
         except (ValueError, TypeError) as exc:
             errors[i] = str(exc)
             continue
@@ -116,17 +116,19 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
         i0 = round(grid.transient_periods / spec.freq_hz / spec.dt)
         stride, i0_row = _record_stride(spec.n_steps, i0)
         groups.setdefault((spec.n_steps, stride, i0_row), []).append(i)
-    n = n_unknowns(shp.geometry().pstart)
-    ws, ws6 = make_workspace(n), make_workspace(6)
     geo = shp.geometry()
+    ws, ws6 = make_workspace(n_unknowns(geo.pstart)), make_workspace(6)
     for (n_steps, stride, i0_row), idx in sorted(groups.items()):
         ss = [specs[i] for i in idx]
         prms = np.ascontiguousarray(np.stack([s.prm for s in ss]))
         states = np.ascontiguousarray(np.stack([s.state0 for s in ss]))
         hs = np.array([s.h for s in ss])
-        area0 = np.array([s.shape.rest_face_area(s.params.line_contact_fraction) / s.units.area for s in ss])
+        contact = [initial_contact(s) for s in ss]
+        area0 = np.array([a for a, _ in contact])
+        touch0 = np.array([t for _, t in contact])
         out = np.zeros((len(ss), KB.N_BATCH_OUT))
-        KB.run_batch(geo, prms, states, hs, area0, True, n_steps, stride, i0_row, ss[0].solver.as_array(), ws, ws6, out)
+        rec = empty_record(n_steps, stride)
+        KB.run_batch(geo, prms, states, hs, area0, touch0, n_steps, stride, i0_row, solver.as_array(), ws, ws6, rec, out)
         for j, (i, s) in enumerate(zip(idx, ss, strict=True)):
             o = out[j]
             status = int(o[KB.B_STATUS])

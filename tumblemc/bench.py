@@ -18,6 +18,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 
+from .kernels import layout as L
 from .shapes import SHAPES
 from .simulate import DEFAULT_DT, prepare, run_spec
 
@@ -46,7 +47,7 @@ def measure(kw: dict, duration_s: float, repeats: int, dt: float | None = None) 
         t0 = time.perf_counter()
         rec, _, _ = run_spec(spec)
         walls.append(time.perf_counter() - t0)
-        nit = float(rec[1:, 19].sum()) / spec.n_steps
+        nit = float(rec[1:, L.R_NIT].sum()) / spec.n_steps
     med = statistics.median(walls)
     return {
         "steps": spec.n_steps,

@@ -125,8 +125,15 @@ def monotonicity_rows(
     return {
         "climbed": res["climbed"].reshape(n, m),
         "status": res["status"].reshape(n, m),
-        "progress_ratio": res["progress_ratio"].reshape(n, m),
     }
+
+
+def climbs_at(crit: np.ndarray, inclines: Sequence[float] | np.ndarray) -> np.ndarray:
+    """int8 (samples, inclines): 1 where ``incline <= critical incline`` (the monotonicity
+    assumption); a sample with no critical incline (NaN: fails at the range minimum or
+    invalid) climbs none."""
+    th = np.asarray(inclines, dtype=float)
+    return (np.nan_to_num(np.asarray(crit, dtype=float), nan=-np.inf)[:, None] >= th[None, :] - 1e-9).astype(np.int8)
 
 
 def expand_to_grid(runs: xr.Dataset, inclines: Sequence[float] | np.ndarray) -> xr.Dataset:
@@ -135,9 +142,7 @@ def expand_to_grid(runs: xr.Dataset, inclines: Sequence[float] | np.ndarray) -> 
     climbs none), so that :func:`tumblemc.analysis.maps` gives ``P(climb theta)``."""
     th = np.asarray(inclines, dtype=float)
     n, m = runs.sizes["run"], len(th)
-    crit = runs["critical_incline_deg"].values
-    with np.errstate(invalid="ignore"):
-        climbed = (np.nan_to_num(crit, nan=-np.inf)[:, None] >= th[None, :] - 1e-9).astype(np.int8)
+    climbed = climbs_at(runs["critical_incline_deg"].values, th)
     rep = {k: np.repeat(runs[k].values, m) for k in ("shape", "substrate", "field_mT", "freq_hz", "sample", "status")}
     return xr.Dataset(
         {
@@ -151,7 +156,7 @@ def expand_to_grid(runs: xr.Dataset, inclines: Sequence[float] | np.ndarray) -> 
     )
 
 
-__all__ = ["CRITICAL_ATTRS", "CRITICAL_OUTCOMES", "bisect_rows", "expand_to_grid", "monotonicity_rows"]
+__all__ = ["CRITICAL_ATTRS", "CRITICAL_OUTCOMES", "bisect_rows", "climbs_at", "expand_to_grid", "monotonicity_rows"]
 
 
 def compare_with_grid(crit_maps: xr.Dataset, grid_maps: xr.Dataset) -> xr.Dataset:

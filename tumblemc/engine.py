@@ -22,6 +22,7 @@ Guarantees
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import json
 import math
@@ -31,7 +32,6 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -42,7 +42,7 @@ import xarray as xr
 from . import __version__
 from .analysis import maps as make_maps
 from .batch import OUTCOMES, STATUS_FLAGS, TimeGrid, simulate_rows
-from .critical import CRITICAL_ATTRS, CRITICAL_OUTCOMES, bisect_rows, expand_to_grid, monotonicity_rows
+from .critical import CRITICAL_ATTRS, CRITICAL_OUTCOMES, bisect_rows, climbs_at, expand_to_grid, monotonicity_rows
 from .io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
 from .sampling import StudyConfig, config_hash, config_to_json, design, load_config, sampled_name
 from .simulate import DEFAULT_DT
@@ -118,9 +118,9 @@ def _error_result(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     out["status"][:] = 3
     out["error"] = np.array([f"internal error: {msg}"], dtype=object)
     if task.mode != "grid" and task.kind == "check":  # the check columns of a critical study
-        m = len(task.inclines)
-        out = {"grid_climbed": np.zeros((1, m), np.int8), "grid_status": np.full((1, m), 3, np.int8), "pair_incline": np.full((1, 2), np.nan),
-               "pair_climbed": np.zeros((1, 2), np.int8), "pair_climbed_fine": np.zeros((1, 2), np.int8), "pair_status_fine": np.full((1, 2), 3, np.int8)}  # fmt: skip
+        out = {
+            k: np.full((1, len(task.inclines) if width == "grid" else 2), fill, dtype) for k, (dtype, width, fill) in CHECK_COLUMNS.items()
+        }
     return task.kind, np.asarray(task.run, dtype=np.int64), out
 
 
@@ -131,6 +131,19 @@ def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     if task.kind == "main":
         return task.kind, run, bisect_rows(task.shape, task.rows, task.grid, task.lo, task.hi, task.tol)
     return task.kind, run, _critical_check(task)
+
+
+#: columns of a critical study's check task: dtype, width ("grid": one per check incline,
+#: "pair": the two inclines around the first failure) and the fill of a run that raised
+CHECK_COLUMNS: dict[str, tuple[type, str, float]] = {
+    "grid_climbed": (np.int8, "grid", 0),
+    "grid_status": (np.int8, "grid", 3),
+    "pair_incline": (np.float64, "pair", np.nan),
+    "pair_climbed": (np.int8, "pair", 0),
+    "pair_status": (np.int8, "pair", 3),
+    "pair_climbed_fine": (np.int8, "pair", 0),
+    "pair_status_fine": (np.int8, "pair", 3),
+}
 
 
 def _critical_check(task: Task) -> dict[str, np.ndarray]:
@@ -184,8 +197,13 @@ def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) ->
     return rows
 
 
+def study_dt(cfg: StudyConfig) -> float:
+    """The study's time step, s (the simulator default when the config leaves it out)."""
+    return float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+
+
 def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
-    dt = cfg.dt if cfg.dt is not None else DEFAULT_DT
+    dt = study_dt(cfg)
     if fine:
         dt = dt / cfg.check.dt_factor
     # a run with a failed step is invalid in a study (status failed_steps): stop it there
@@ -200,6 +218,13 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
     )
 
 
+def check_inclines(cfg: StudyConfig) -> tuple[float, ...]:
+    """Grid inclines of a critical-incline study's monotonicity check, sorted: those of
+    ``incline_deg`` inside ``incline_range``."""
+    lo, hi = cfg.incline_range
+    return tuple(sorted(t for t in cfg.incline_deg if lo <= t <= hi))
+
+
 def check_subset(des: xr.Dataset) -> np.ndarray:
     """Run indices re-simulated at the finer dt (the design's ``check`` flag: a fraction of
     the runs, at least ``[check].min_runs``, chosen by a seeded hash of each run's key)."""
@@ -208,7 +233,9 @@ def check_subset(des: xr.Dataset) -> np.ndarray:
 
 def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str) -> list[Task]:
     """Batches of the runs ``todo``: runs of one cell (one shape and time grid) together."""
-    grid = grid_of(cfg, fine=(kind == "check"))
+    grid = grid_of(cfg, fine=(kind == "check" and cfg.mode == "grid"))
+    fine = grid_of(cfg, fine=True)
+    inclines = check_inclines(cfg)
     shapes = des["shape"].values
     cellkey = des["cell_key"].values
     tasks = []
@@ -228,10 +255,20 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
             lo, hi = cfg.incline_range
             tasks.append(
                 Task(
-                    kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid_of(cfg), cfg.mode, lo, hi, cfg.incline_tol,
-                    tuple(sorted(t for t in cfg.incline_deg if lo <= t <= hi)), grid_of(cfg, fine=True),
+                    kind,
+                    key,
+                    str(shapes[idx[0]]),
+                    tuple(int(i) for i in idx),
+                    rows,
+                    grid,
+                    cfg.mode,
+                    lo,
+                    hi,
+                    cfg.incline_tol,
+                    inclines,
+                    fine,
                 )
-            )  # fmt: skip
+            )
         start = stop
     return tasks
 
@@ -458,6 +495,14 @@ def _with_outcomes(des: xr.Dataset, main: dict[str, np.ndarray], columns: dict[s
     return runs
 
 
+def _check_pos(check: dict[str, np.ndarray], check_idx: np.ndarray) -> np.ndarray:
+    """Positions of the check runs ``check_idx`` in the (sorted) check shards."""
+    pos = np.searchsorted(check["run"], check_idx)
+    if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
+        raise RuntimeError("internal error: the shards do not hold every check run of the study")
+    return pos
+
+
 def assemble_runs(
     cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
 ) -> xr.Dataset:
@@ -466,9 +511,7 @@ def assemble_runs(
     runs["climbed"].attrs["ancillary_variables"] = "status progress_ratio"
     runs["progress_ratio"].attrs["ancillary_variables"] = "status"
     if len(check_idx):
-        pos = np.searchsorted(check["run"], check_idx)
-        if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
-            raise RuntimeError("internal error: the shards do not hold every check run of the study")
+        pos = _check_pos(check, check_idx)
         fine_ratio = check["progress_ratio"][pos]
         fine_climbed = check["climbed"][pos].astype(np.int8)
         runs["check_run"] = ("check", check_idx)
@@ -507,7 +550,7 @@ def assemble_runs(
     if "run" in runs.coords:
         runs["run"].attrs.update({"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"})
     runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
-    runs.attrs["dt"] = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    runs.attrs["dt"] = study_dt(cfg)
     return runs
 
 
@@ -521,7 +564,7 @@ def assemble_critical(
     runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
     runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
     lo, hi = cfg.incline_range
-    th = np.array(sorted(t for t in cfg.incline_deg if lo <= t <= hi))
+    th = np.array(check_inclines(cfg))
     runs.attrs.update(
         {
             "mode": cfg.mode,
@@ -531,16 +574,12 @@ def assemble_critical(
             "check_dt_factor": float(cfg.check.dt_factor),
         }
     )
-    runs.attrs["dt"] = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    runs.attrs["dt"] = study_dt(cfg)
     if len(check_idx):
-        pos = np.searchsorted(check["run"], check_idx)
-        if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
-            raise RuntimeError("internal error: the shards do not hold every check run of the study")
+        pos = _check_pos(check, check_idx)
         g = check["grid_climbed"][pos].astype(np.int8)
         gs = check["grid_status"][pos].astype(np.int8)
-        crit = runs["critical_incline_deg"].values[check_idx]
-        with np.errstate(invalid="ignore"):
-            pred = (np.nan_to_num(crit, nan=-np.inf)[:, None] >= th[None, :] - 1e-9).astype(np.int8)
+        pred = climbs_at(runs["critical_incline_deg"].values[check_idx], th)
         ok = (gs == 0) & (runs["status"].values[check_idx] == 0)[:, None]
         dis = (g != pred) & ok
         # a verdict sequence along the incline is monotone if it never climbs after a failure

@@ -13,7 +13,7 @@ from . import __version__
 from .kernels import layout as L
 from .kernels.newton import Workspace, make_workspace
 from .kernels.residual import n_unknowns
-from .kernels.stepper import Geometry, empty_record, run
+from .kernels.stepper import Geometry, empty_record, n_records, run
 from .params import Params, SolverOptions, get_preset
 from .results import annotate
 from .shapes import Shape, get_shape
@@ -143,7 +143,7 @@ def prepare(
     n_steps = round(duration_s / dt)
     if n_steps < 1:
         raise ValueError(f"duration_s={duration_s!r} is shorter than one step dt={dt!r} (allowed: duration_s >= dt)")
-    rows = -(-n_steps // record_every) + 1
+    rows = n_records(n_steps, record_every)
     if rows * L.N_REC * 8 > MAX_RECORD_BYTES:
         raise ValueError(
             f"duration_s={duration_s!r} with dt={dt!r} and record_every={record_every} records {rows} rows "
@@ -209,6 +209,13 @@ def prepare(
     )
 
 
+def initial_contact(spec: RunSpec) -> tuple[float, bool]:
+    """Adhering area (scaled) and contact at ``t = 0``: the robot starts lying on a face
+    (MODEL.md), unless lifted, so that face adheres from the first step."""
+    resting = spec.lift_m == 0.0
+    return (spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0), resting
+
+
 def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = None) -> tuple[np.ndarray, int, int]:
     """Run the kernel for ``spec``; returns ``(rec, status, failed_steps)`` (scaled)."""
     n = n_unknowns(spec.geo.pstart)
@@ -216,9 +223,7 @@ def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = Non
     rec = empty_record(spec.n_steps, spec.record_every)
     z = np.zeros(n)
     state = spec.state0.copy()
-    # the robot starts lying on a face (MODEL.md), unless lifted: that face adheres from step 1
-    resting = spec.lift_m == 0.0
-    area0 = spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0
+    area0, resting = initial_contact(spec)
     status, failed = run(
         spec.geo,
         spec.prm,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import jit
-from .layout import N_REC, P_U, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
+from .layout import P_U, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
 from .stepper import run
 
 # ---- summary columns (one row per run) ----------------------------------------------
@@ -18,12 +18,11 @@ B_STATUS = 0  # BATCH_* status below
 B_FAILED = 1  # steps that did not converge at the smallest sub-step
 B_PROGRESS = 2  # uphill progress over the measurement window (scaled length)
 B_WINDOW = 3  # length of the measurement window (scaled time)
-B_PROGRESS_TOTAL = 4  # uphill progress over the whole run (scaled length)
-B_NIT = 5  # Newton iterations, total
-B_SUB = 6  # extra sub-steps, total
-B_FALLBACK = 7  # damped/gradient fallbacks, total
-B_PEN = 8  # max penetration (scaled length)
-N_BATCH_OUT = 9
+B_NIT = 4  # Newton iterations, total
+B_SUB = 5  # extra sub-steps, total
+B_FALLBACK = 6  # damped/gradient fallbacks, total
+B_PEN = 7  # max penetration (scaled length)
+N_BATCH_OUT = 8
 
 # ---- run status (also the engine's ``status`` flag values) -------------------------
 BATCH_OK = 0  # finished, every step converged
@@ -33,7 +32,7 @@ BATCH_ERROR = 3  # never ran: invalid parameters (set by the Python layer)
 
 
 @jit
-def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_row, opts, ws, ws6, out):  # type: ignore[no-untyped-def]
+def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_row, opts, ws, ws6, rec, out):  # type: ignore[no-untyped-def]
     """Simulate ``B`` independent runs of one shape on one time grid.
 
     Parameters
@@ -48,14 +47,16 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         Step length of each run (scaled time; equal ``dt`` may scale differently).
     area0 : float64[B]
         Adhering area at ``t = 0`` (scaled).
-    touch0 : bool
-        Whether the robots start touching the plane.
+    touch0 : bool[B]
+        Whether each robot starts touching the plane.
     n_steps, record_every, i0_row : int
         Steps per run, recording stride and the record row that starts the measurement
         window (``i0_row * record_every`` steps after the start).
     opts : float64[N_OPT]
     ws, ws6 : Workspace
         Solver workspaces (full system, 6-unknown free-flight system), reused by all runs.
+    rec : float64[n_records(n_steps, record_every), N_REC]
+        Record workspace, reused by all runs.
     out : float64[B, N_BATCH_OUT]
         Receives one summary row per run (columns ``B_*``).
 
@@ -67,8 +68,7 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
     """
     B = prms.shape[0]
     n = ws.F.shape[0]
-    rows = (n_steps + record_every - 1) // record_every + 1
-    rec = np.zeros((rows, N_REC))
+    rows = rec.shape[0]
     z = np.zeros(n)
     z6 = np.zeros(6)
     zsave = np.zeros(n)
@@ -79,13 +79,10 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         z6[:] = 0.0
         zsave[:] = 0.0
         state[:] = states0[b]
-        status, failed = run(geo, prms[b], state, 0.0, hs[b], n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave, area0[b], touch0)
+        status, failed = run(geo, prms[b], state, 0.0, hs[b], n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave, area0[b], touch0[b])
         prog = 0.0
-        prog_tot = 0.0
         for i in range(3):
-            u = prms[b, P_U + i]
-            prog += u * (rec[rows - 1, R_X + i] - rec[i0_row, R_X + i])
-            prog_tot += u * (rec[rows - 1, R_X + i] - rec[0, R_X + i])
+            prog += prms[b, P_U + i] * (rec[rows - 1, R_X + i] - rec[i0_row, R_X + i])
         nit = 0.0
         sub = 0.0
         fb = 0.0
@@ -98,8 +95,7 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
             code = BATCH_FAILED_STEPS
             prog = np.nan
-            prog_tot = np.nan
-        elif status != ST_OK or not (np.isfinite(prog) and np.isfinite(prog_tot)):
+        elif status != ST_OK or not np.isfinite(prog):
             code = BATCH_NONFINITE  # the stepper stops otherwise only on a non-finite state
         elif failed > 0:
             code = BATCH_FAILED_STEPS
@@ -109,7 +105,6 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         out[b, B_FAILED] = failed
         out[b, B_PROGRESS] = prog
         out[b, B_WINDOW] = rec[rows - 1, R_T] - rec[i0_row, R_T]
-        out[b, B_PROGRESS_TOTAL] = prog_tot
         out[b, B_NIT] = nit
         out[b, B_SUB] = sub
         out[b, B_FALLBACK] = fb
