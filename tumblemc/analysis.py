@@ -26,6 +26,8 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtri
 from scipy.stats import beta
 
+from .results import annotate
+
 CI_METHODS = ("wilson", "clopper-pearson")
 CELL_DIMS = ("shape", "incline_deg", "substrate")
 SWEEP_DIMS = ("field_mT", "freq_hz")  # dims of the maps only when the study sweeps them
@@ -168,6 +170,20 @@ def _cell_dims(runs: xr.Dataset) -> tuple[list[str], dict[str, np.ndarray]]:
     return dims, values
 
 
+def cell_groups(runs: xr.Dataset, dims: Sequence[str]) -> tuple[dict[str, np.ndarray], tuple[int, ...], np.ndarray, list[np.ndarray]]:
+    """Cells of ``runs`` over the coordinates ``dims``: the sorted unique values per dim,
+    the grid shape, the flat (C-order) cell index of every run and the run indices of
+    every cell (in run order)."""
+    values = {d: np.unique(runs[d].values) for d in dims}
+    shape = tuple(values[d].size for d in dims)
+    idx = np.zeros(runs.sizes["run"], dtype=np.int64)
+    for d, size in zip(dims, shape, strict=True):
+        idx = idx * size + np.searchsorted(values[d], runs[d].values)
+    order = np.argsort(idx, kind="stable")
+    bounds = np.searchsorted(idx[order], np.arange(int(np.prod(shape)) + 1))
+    return values, shape, idx, [order[bounds[c] : bounds[c + 1]] for c in range(bounds.size - 1)]
+
+
 def _sorted_mean(x: np.ndarray) -> float:
     return float(np.sum(np.sort(x)) / x.size) if x.size else np.nan
 
@@ -220,12 +236,8 @@ def maps(
 
     runs = sort_runs(runs)
     dims, values = _cell_dims(runs)
-    shape = tuple(values[d].size for d in dims)
-    # flat cell index of every run
-    idx = np.zeros(runs.sizes["run"], dtype=np.int64)
-    for d, size in zip(dims, shape, strict=True):
-        idx = idx * size + np.searchsorted(values[d], runs[d].values)
-    ncell = int(np.prod(shape))
+    _, shape, idx, groups = cell_groups(runs, dims)
+    ncell = len(groups)
 
     status = runs["status"].values
     valid = status == 0
@@ -239,10 +251,7 @@ def maps(
     ratio_mean = np.full(ncell, np.nan)
     speed_mean = np.full(ncell, np.nan)
     ratio_q = np.full((ncell, q.size), np.nan)
-    order = np.argsort(idx, kind="stable")
-    bounds = np.searchsorted(idx[order], np.arange(ncell + 1))
-    for c in range(ncell):
-        rows = order[bounds[c] : bounds[c + 1]]
+    for c, rows in enumerate(groups):
         rows = rows[valid[rows]]
         r = ratio[rows]
         r = r[np.isfinite(r)]
@@ -287,17 +296,12 @@ def maps(
         if d in values and d not in dims and values[d].size == 1:
             coords[d] = ((), values[d][0])
     coords["quantile"] = ("quantile", q)
-    out = xr.Dataset(data, coords=coords)
-    for name, attrs in MAP_VARIABLES.items():
-        out[name].attrs.update(attrs)
+    out = annotate(xr.Dataset(data, coords=coords), {**MAP_VARIABLES, **COORD_ATTRS})
     for name in ("p_success_lower", "p_success_upper"):
         out[name].attrs.update(ci_attrs)
         out[name].attrs["long_name"] = out[name].attrs["long_name"].replace("confidence interval", f"{pct} {method} confidence interval")
     out["p_success"].attrs.update(ci_attrs)
     out["progress_ratio_quantile"].attrs["quantile_method"] = "linear"
-    for name, attrs in COORD_ATTRS.items():
-        if name in out.coords:
-            out[name].attrs.update(attrs)
     out.attrs.update({k: v for k, v in sorted(runs.attrs.items())})
     out.attrs.update(
         {

@@ -44,7 +44,7 @@ from .analysis import maps as make_maps
 from .batch import OUTCOMES, STATUS_FLAGS, TimeGrid, simulate_rows
 from .critical import CRITICAL_ATTRS, CRITICAL_OUTCOMES, bisect_rows, climbs_at, expand_to_grid, monotonicity_rows
 from .io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
-from .sampling import StudyConfig, config_hash, config_to_json, design, load_config, sampled_name
+from .sampling import StudyConfig, batch_row, config_hash, config_to_json, design, load_config, sampled_name
 from .simulate import DEFAULT_DT
 
 OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
@@ -178,23 +178,10 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
 
 
 def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[dict[str, Any]]:
-    """``simulate`` keywords of runs ``idx`` (a sampled ``field_mT`` replaces the cell's)."""
-    names = cfg.uncertain_names
-    cols = {k: des[k].values for k in ("substrate", "incline_deg", "field_mT", "freq_hz") if k in des.variables}
-    sampled = {k: des[sampled_name(k)].values for k in names}
-    rows = []
-    for i in idx:
-        row: dict[str, Any] = {
-            "preset": str(cols["substrate"][i]),
-            "field_mT": float(cols["field_mT"][i]),
-            "freq_hz": float(cols["freq_hz"][i]),
-        }
-        if "incline_deg" in cols:  # absent in a critical-incline study
-            row["incline_deg"] = float(cols["incline_deg"][i])
-        for k in names:
-            row[k] = float(sampled[k][i])
-        rows.append(row)
-    return rows
+    """:func:`tumblemc.sampling.batch_row` of runs ``idx`` (columns read once, not per run)."""
+    names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
+    cols = {k: des[k].values for k in names if k in des.variables}
+    return [batch_row(cfg, {k: v[i] for k, v in cols.items()}) for i in idx]
 
 
 def study_dt(cfg: StudyConfig) -> float:

@@ -29,8 +29,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
 from .analysis import SWEEP_DIMS, check_summary, proportion_ci, sort_runs
-from .sampling import sampled_name
-from .sensitivity import PrimResult, cell_mask
+from .sensitivity import PrimResult, _parameters, _valid, cell_mask
 
 CMAP = "viridis"
 DPI = 150
@@ -402,13 +401,6 @@ def plot_sobol(indices: xr.Dataset, path: str | os.PathLike[str] | None = None) 
     return fig
 
 
-def _param_names(runs: xr.Dataset) -> list[str]:
-    names = [s.strip() for s in str(runs.attrs.get("uncertain", "")).split(",") if s.strip()]
-    if not names:
-        raise ValueError("runs.attrs['uncertain'] names no parameter")
-    return names
-
-
 def plot_success_vs_parameter(
     runs: xr.Dataset,
     shape: str,
@@ -420,6 +412,8 @@ def plot_success_vs_parameter(
     bins: int = 8,
     level: float = 0.95,
     method: str = "wilson",
+    field_mT: float | None = None,
+    freq_hz: float | None = None,
 ) -> Figure:
     """Outcome and success fraction against each uncertain parameter of a cell.
 
@@ -434,6 +428,7 @@ def plot_success_vs_parameter(
     bins : equal-count bins of the parameter for the success curve.
     level, method : interval of the success fraction per bin
         (:func:`tumblemc.analysis.proportion_ci`).
+    field_mT, freq_hz : the field setting, needed when the study sweeps it.
 
     Returns
     -------
@@ -446,10 +441,11 @@ def plot_success_vs_parameter(
     """
     if bins < 1:
         raise ValueError(f"bins must be >= 1, got {bins!r}")
-    names = _param_names(runs)
-    mask = cell_mask(runs, shape, substrate, incline_deg)
+    params = _parameters(runs, None)
+    names = [p for p, _ in params]
+    mask = cell_mask(runs, shape, substrate, incline_deg, field_mT=field_mT, freq_hz=freq_hz)
     inclines = np.unique(np.asarray(runs["incline_deg"].values, dtype=np.float64)[mask])
-    valid = np.asarray(runs["status"].values) == 0
+    valid = _valid(runs)
     y_all = np.asarray(runs[outcome].values, dtype=np.float64)
     climbed = np.asarray(runs["climbed"].values) == 1
     inc_all = np.asarray(runs["incline_deg"].values, dtype=np.float64)
@@ -459,9 +455,8 @@ def plot_success_vs_parameter(
     fig, axes = _panel_grid(nrows, ncols, 3.6, 2.8)
     for ax in axes.ravel()[len(names) :]:
         ax.set_visible(False)
-    for p, name in enumerate(names):
+    for p, (name, var) in enumerate(params):
         ax = axes.ravel()[p]
-        var = sampled_name(name)
         x_all = np.asarray(runs[var].values, dtype=np.float64)
         right = ax.twinx()
         for k, inc in enumerate(inclines):

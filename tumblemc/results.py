@@ -39,9 +39,10 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
 }
 
 
-def annotate(ds: xr.Dataset) -> xr.Dataset:
-    """Attach the schema's attributes to every known variable of ``ds`` (in place)."""
-    for name, attrs in RUN_VARIABLES.items():
+def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) -> xr.Dataset:
+    """Attach the attributes of ``schema`` (default: a run's, :data:`RUN_VARIABLES`) to
+    every variable of ``ds`` it names (in place)."""
+    for name, attrs in (RUN_VARIABLES if schema is None else schema).items():
         if name in ds.variables:
             ds[name].attrs.update(attrs)
     return ds

@@ -158,14 +158,15 @@ from scipy import stats
 from scipy.stats import qmc
 
 from . import shapes as _shapes
+from .analysis import CI_METHODS, COORD_ATTRS
 from .params import PRESETS
+from .simulate import TORQUE_OPTIONS
 
 #: version of the seed derivation and sampler mapping; part of every config hash
 SAMPLING_SCHEME = 1
 MODES = ("grid", "critical_incline")
 SAMPLERS = ("mc", "sobol", "lhs")
-CI_METHODS = ("wilson", "clopper-pearson")
-TORQUES = ("start", "end")
+TORQUES = TORQUE_OPTIONS  # the simulator's torque options
 DISTS = ("normal", "truncnormal", "lognormal", "uniform", "triangular")
 #: most probability a ``normal``/``lognormal`` may put outside the physical range
 NEGLIGIBLE_MASS = 1e-6
@@ -256,9 +257,6 @@ class Uncertain:
     param: str
     dist: str
     args: tuple[tuple[str, float], ...]
-
-    def arg(self, name: str, default: float | None = None) -> float | None:
-        return dict(self.args).get(name, default)
 
     def to_dict(self) -> dict[str, Any]:
         return {"dist": self.dist, **dict(self.args)}
@@ -659,7 +657,6 @@ def nominal_value(param: str, substrate: str, field_mT: float) -> float:
 class _Mode:
     dims: tuple[str, ...]  # cell coordinates, in run-table order (outermost first)
     keys: tuple[str, ...]  # top-level keys only this mode takes
-    required: tuple[str, ...]
     cells: Callable[[StudyConfig], list[dict[str, Any]]]
 
 
@@ -685,11 +682,11 @@ def _critical_cells(c: StudyConfig) -> list[dict[str, Any]]:
 
 
 _MODES: dict[str, _Mode] = {
-    "grid": _Mode(("shape", "substrate", "incline_deg", "field_mT", "freq_hz"), ("incline_deg",), ("incline_deg",), _grid_cells),
+    "grid": _Mode(("shape", "substrate", "incline_deg", "field_mT", "freq_hz"), ("incline_deg",), _grid_cells),
     # one run = one parameter sample; the engine bisects on the incline within
     # incline_range to incline_tol; incline_deg is the grid of the monotonicity check
     "critical_incline": _Mode(
-        ("shape", "substrate", "field_mT", "freq_hz"), ("incline_deg", "incline_range", "incline_tol"), ("incline_deg",), _critical_cells
+        ("shape", "substrate", "field_mT", "freq_hz"), ("incline_deg", "incline_range", "incline_tol"), _critical_cells
     ),
 }
 
@@ -1000,26 +997,21 @@ def design(config: StudyConfig) -> xr.Dataset:
     if len(np.unique(keys)) != total:  # 2**-63 per pair; checked, not assumed
         raise RuntimeError("run_key collision: change SAMPLING_SCHEME's hashing")
 
-    def per_run(name: str) -> np.ndarray:
-        return np.repeat(np.asarray([cell[name] for cell in cl]), n)
-
-    if "incline_deg" not in config.cell_dims:  # the critical-incline mode: no incline per run
-        cl = [{**cell, "incline_deg": np.nan} for cell in cl]
-
     run = ("run",)
-    coords: dict[str, Any] = {
-        "run": np.arange(total),
-        "shape": (run, per_run("shape").astype(str), {"long_name": "robot shape"}),
-        "substrate": (run, per_run("substrate").astype(str), {"long_name": "substrate preset"}),
-        "incline_deg": (run, per_run("incline_deg").astype(float), {"units": "degree", "long_name": "substrate incline"}),
-        "field_mT": (run, per_run("field_mT").astype(float), {"units": "mT", "long_name": "nominal rotating field magnitude"}),
-        "freq_hz": (run, per_run("freq_hz").astype(float), {"units": "Hz", "long_name": "rotating field frequency"}),
-        "sample": (run, np.tile(np.arange(n, dtype=np.int64), ncell), {"units": "1", "long_name": "sample index within the cell"}),
-        "cell_key": (run, np.repeat(np.asarray(ckeys, dtype=str), n), {"long_name": "stable cell id (sha256 of the cell coordinates)"}),
-        "run_key": (run, keys, {"units": "1", "long_name": "stable run id (sha256 of the cell and sample)"}),
-    }
-    if "incline_deg" not in config.cell_dims:
-        del coords["incline_deg"]
+    coords: dict[str, Any] = {"run": np.arange(total)}
+    for d in config.cell_dims:  # the critical-incline mode has no incline per run
+        col = np.repeat(np.asarray([cell[d] for cell in cl]), n)
+        cattrs = dict(COORD_ATTRS[d])
+        if d == "field_mT":
+            cattrs["long_name"] = "nominal " + cattrs["long_name"]
+        coords[d] = (run, col.astype(str if d in ("shape", "substrate") else float), cattrs)
+    coords.update(
+        {
+            "sample": (run, np.tile(np.arange(n, dtype=np.int64), ncell), {"units": "1", "long_name": "sample index within the cell"}),
+            "cell_key": (run, np.repeat(np.asarray(ckeys, dtype=str), n), {"long_name": "stable cell id (sha256 of the cell coordinates)"}),
+            "run_key": (run, keys, {"units": "1", "long_name": "stable run id (sha256 of the cell and sample)"}),
+        }
+    )
     data: dict[str, Any] = {}
     for j, unc in enumerate(config.uncertain):
         r = PHYSICAL_RANGE[unc.param]
@@ -1069,22 +1061,29 @@ def params_for_run(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> 
     return {u.param: float(_scalar(row, u.param)) for u in config.uncertain if u.param != "field_mT"}
 
 
+def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
+    """The keywords of one run that differ from run to run (a row of
+    :func:`tumblemc.batch.simulate_rows`): preset, incline, field (the sampled one if
+    ``field_mT`` is uncertain), frequency and :func:`params_for_run`."""
+    field_name = sampled_name("field_mT") if "field_mT" in config.uncertain_names else "field_mT"
+    out: dict[str, Any] = {"preset": str(_scalar(row, "substrate"))}
+    if "incline_deg" in row:  # a critical-incline run has none: the engine sets it
+        out["incline_deg"] = float(_scalar(row, "incline_deg"))
+    out["field_mT"] = float(_scalar(row, field_name))
+    out["freq_hz"] = float(_scalar(row, "freq_hz"))
+    return {**out, **params_for_run(config, row)}
+
+
 def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
-    """Every keyword of ``tumblemc.simulate`` for one run: shape, preset, incline, field
-    (the sampled one if ``field_mT`` is uncertain), frequency, duration, dt, torque and
-    :func:`params_for_run`."""
-    freq = float(_scalar(row, "freq_hz"))
-    field_name = "field_mT_sampled" if "field_mT" in config.uncertain_names else "field_mT"
+    """Every keyword of ``tumblemc.simulate`` for one run: :func:`batch_row` plus the
+    shape and the time grid (duration, dt, torque)."""
+    b = batch_row(config, row)
     return {
         "shape": str(_scalar(row, "shape")),
-        "preset": str(_scalar(row, "substrate")),
-        "incline_deg": float(_scalar(row, "incline_deg")),
-        "field_mT": float(_scalar(row, field_name)),
-        "freq_hz": freq,
-        "duration_s": config.duration_s(freq),
+        **b,
+        "duration_s": config.duration_s(b["freq_hz"]),
         "dt": config.dt,
         "torque": config.torque,
-        **params_for_run(config, row),
     }
 
 
@@ -1106,6 +1105,7 @@ __all__ = [
     "PhysicalRange",
     "StudyConfig",
     "Uncertain",
+    "batch_row",
     "cell_key",
     "cells",
     "config_hash",

@@ -51,9 +51,9 @@ from scipy import optimize, stats
 from scipy.special import expit, ndtri
 from scipy.stats import qmc
 
-from .analysis import SWEEP_DIMS
+from .analysis import COORD_ATTRS, SWEEP_DIMS, cell_groups
 from .params import PRESETS
-from .sampling import PHYSICAL_RANGE, StudyConfig, nominal_value, run_kwargs, sampled_name
+from .sampling import PHYSICAL_RANGE, StudyConfig, batch_row, nominal_value, run_kwargs, sampled_name
 
 #: default cell coordinates of the per-cell analyses (swept field settings are added)
 CELL_BY = ("shape", "substrate", "incline_deg")
@@ -61,14 +61,7 @@ CELL_BY = ("shape", "substrate", "incline_deg")
 RIDGE = 1e-2
 _BOOT_ELEMENTS = 1 << 22  # bootstrap chunk size (float64 elements per array), ~32 MB
 
-_COORD_ATTRS: dict[str, dict[str, str]] = {
-    "shape": {"long_name": "robot shape"},
-    "substrate": {"long_name": "substrate preset"},
-    "incline_deg": {"units": "degree", "long_name": "incline angle of the plane"},
-    "field_mT": {"units": "mT", "long_name": "magnitude of the rotating magnetic field"},
-    "freq_hz": {"units": "Hz", "long_name": "rotation frequency of the magnetic field"},
-    "parameter": {"long_name": "uncertain parameter"},
-}
+_COORD_ATTRS: dict[str, dict[str, str]] = {**COORD_ATTRS, "parameter": {"long_name": "uncertain parameter"}}
 
 
 # ------------------------------------------------------------------------------ sampling
@@ -250,6 +243,15 @@ def sobol_rows(
         config's distributions. Run them, then ``split_saltelli(y, d)`` and
         :func:`sobol_indices` with ``names=config.uncertain_names``.
     """
+    U, cells = _design_cells(config, n, seed, shape, substrate, incline_deg, field_mT, freq_hz)
+    return U, [run_kwargs(config, c) for c in cells]
+
+
+def _design_cells(
+    config: StudyConfig, n: int, seed: int, shape: str, substrate: str, incline_deg: float, field_mT: float | None, freq_hz: float | None
+) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    """The stacked Saltelli design and one run-table row (cell coordinates and sampled
+    parameters) per design row."""
     d = len(config.uncertain)
     if d == 0:
         raise ValueError("the config has no uncertain parameter: nothing to analyse")
@@ -258,8 +260,7 @@ def sobol_rows(
     U = saltelli_design(n, d, seed).stack()
     values = map_unit_samples(config, U, substrate, b)
     cell = {"shape": shape, "substrate": substrate, "incline_deg": float(incline_deg), "field_mT": b, "freq_hz": f}
-    rows = [run_kwargs(config, {**cell, **{k: float(v[i]) for k, v in values.items()}}) for i in range(U.shape[0])]
-    return U, rows
+    return U, [{**cell, **{k: float(v[i]) for k, v in values.items()}} for i in range(U.shape[0])]
 
 
 def robot_sobol(
@@ -287,9 +288,8 @@ def robot_sobol(
 
     if outcome not in ("progress_ratio", "mean_speed"):
         raise ValueError(f"outcome={outcome!r} is not allowed (allowed: progress_ratio, mean_speed)")
-    _, rows = sobol_rows(config, n, seed, shape, substrate, incline_deg)
-    drop = ("shape", "duration_s", "dt", "torque")
-    res = simulate_rows(shape, [{k: v for k, v in r.items() if k not in drop} for r in rows], grid_of(config))
+    _, cells = _design_cells(config, n, seed, shape, substrate, incline_deg, None, None)
+    res = simulate_rows(shape, [batch_row(config, c) for c in cells], grid_of(config))
     y = np.where(res["status"] == 0, res[outcome], np.nan)
     yA, yB, yAB = split_saltelli(y, len(config.uncertain))
     out = sobol_indices(yA, yB, yAB, names=list(config.uncertain_names), n_boot=n_boot, level=level, seed=seed)
@@ -472,15 +472,9 @@ def _by(runs: xr.Dataset, by: Sequence[str] | None) -> list[str]:
 
 def _groups(runs: xr.Dataset, dims: Sequence[str]) -> tuple[dict[str, np.ndarray], tuple[int, ...], list[np.ndarray]]:
     """Sorted unique values per dim, the grid shape, and the run indices of each cell
-    (C order over the grid)."""
-    values = {d: np.unique(runs[d].values) for d in dims}
-    shape = tuple(values[d].size for d in dims)
-    idx = np.zeros(runs.sizes["run"], dtype=np.int64)
-    for d, size in zip(dims, shape, strict=True):
-        idx = idx * size + np.searchsorted(values[d], runs[d].values)
-    order = np.argsort(idx, kind="stable")
-    bounds = np.searchsorted(idx[order], np.arange(int(np.prod(shape)) + 1))
-    return values, shape, [order[bounds[c] : bounds[c + 1]] for c in range(bounds.size - 1)]
+    (C order over the grid): :func:`tumblemc.analysis.cell_groups`."""
+    values, shape, _, groups = cell_groups(runs, dims)
+    return values, shape, groups
 
 
 def _valid(runs: xr.Dataset) -> np.ndarray:
@@ -1004,7 +998,9 @@ def cell_mask(
     field_mT: float | None = None,
     freq_hz: float | None = None,
 ) -> np.ndarray:
-    """Boolean mask over ``run`` of the runs of one cell (``None``: any value)."""
+    """Boolean mask over ``run`` of the runs of one cell (``incline_deg=None``: every
+    incline). A study that sweeps the field or the frequency needs ``field_mT=`` /
+    ``freq_hz=``: runs of different field settings are never pooled."""
     mask = (np.asarray(runs["shape"].values).astype(str) == shape) & (np.asarray(runs["substrate"].values).astype(str) == substrate)
     for name, v in (("incline_deg", incline_deg), ("field_mT", field_mT), ("freq_hz", freq_hz)):
         if v is not None:
@@ -1013,6 +1009,9 @@ def cell_mask(
         raise ValueError(
             f"no run with shape={shape!r}, substrate={substrate!r}, incline_deg={incline_deg!r}, field_mT={field_mT!r}, freq_hz={freq_hz!r}"
         )
+    for name in ("field_mT", "freq_hz"):
+        if name in runs.variables and np.unique(np.asarray(runs[name].values)[mask]).size > 1:
+            raise ValueError(f"the cell has several {name} values; pass {name}=")
     return mask
 
 
@@ -1047,9 +1046,6 @@ def failure_region(
     """
     params = _parameters(runs, parameters)
     mask = cell_mask(runs, shape, substrate, incline_deg, field_mT=field_mT, freq_hz=freq_hz) & _valid(runs)
-    for name in ("field_mT", "freq_hz"):
-        if name in runs.variables and np.unique(np.asarray(runs[name].values)[mask]).size > 1:
-            raise ValueError(f"the cell has several {name} values; pass {name}=")
     X = np.column_stack([np.asarray(runs[v].values, dtype=np.float64)[mask] for _, v in params])
     failed = np.asarray(runs["climbed"].values)[mask] == 0
     ok = np.all(np.isfinite(X), axis=1)
