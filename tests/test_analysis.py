@@ -14,9 +14,9 @@ from tumblemc.analysis import check_summary, maps, proportion_ci
 from tumblemc.plotting_study import plot_ratio_distribution, plot_study, plot_success_curves, plot_success_heatmap
 
 # regression tolerances: closed form (Wilson) and beta quantiles (Clopper-Pearson) against
-# scipy's formula and root finding; the latter converges to ~1e-12 in p.
+# scipy's formula and root finding (measured: at most 5e-13 apart).
 WILSON_ATOL = 1e-13
-EXACT_ATOL = 1e-9
+EXACT_ATOL = 1e-11
 
 SHAPES = ("cuboid", "cylinder", "spiky")
 SUBSTRATES = ("paper", "aluminum")
@@ -176,7 +176,7 @@ def test_maps_counts_match_naive_loop(runs: xr.Dataset, study_maps: xr.Dataset) 
         np.testing.assert_allclose([float(c["p_success_lower"]), float(c["p_success_upper"])], [ref.low, ref.high], atol=WILSON_ATOL)
         np.testing.assert_allclose(float(c["progress_ratio_mean"]), np.mean(ratios), rtol=1e-12)
         np.testing.assert_allclose(float(c["mean_speed_mean"]), np.mean(speeds), rtol=1e-12)
-        np.testing.assert_allclose(c["progress_ratio_quantile"].values, np.quantile(ratios, m["quantile"].values), rtol=1e-12)
+        np.testing.assert_array_equal(c["progress_ratio_quantile"].values, np.quantile(ratios, m["quantile"].values))
     # the synthetic study has its edge cells
     assert int(m["n_valid"].sel(shape="spiky", substrate="aluminum", incline_deg=45.0)) == 0
     easy = m.sel(shape="cuboid", substrate="paper", incline_deg=0.0)
@@ -218,8 +218,8 @@ def test_check_summary(runs: xr.Dataset) -> None:
     delta = np.abs(runs["check_progress_ratio_fine"].values - runs["progress_ratio"].values[runs["check_run"].values])
     delta = delta[np.isfinite(delta)]
     assert sm["n_compared"] == delta.size
-    assert sm["median_abs_delta_ratio"] == pytest.approx(np.median(delta))
-    assert sm["max_abs_delta_ratio"] == pytest.approx(np.max(delta))
+    assert sm["median_abs_delta_ratio"] == np.median(delta)
+    assert sm["max_abs_delta_ratio"] == np.max(delta)
     none = check_summary(runs.drop_vars([v for v in runs.variables if str(v).startswith("check_")]))
     assert none["n_checked"] == 0 and none["agreement_rate"] is None and none["median_abs_delta_ratio"] is None
 
@@ -244,15 +244,22 @@ def test_plots_with_swept_field(tmp_path: Path) -> None:
         assert (tmp_path / f"{func.__name__}.png").stat().st_size > 0
 
 
-def test_bounds_with_invalid_runs_bracket_p() -> None:
-    """Counting invalid runs as failures / successes brackets the range they leave open."""
-    runs = synthetic_runs(seed=3, per_cell=20)
-    m = maps(runs)
-    n_s, n_r, n_f = (m[k].values.astype(float) for k in ("n_success", "n_runs", "n_failed"))
-    ok = n_r > 0
-    np.testing.assert_allclose(m["p_success_invalid_as_failure"].values[ok], (n_s / n_r)[ok])
-    np.testing.assert_allclose(m["p_success_invalid_as_success"].values[ok], ((n_s + n_f) / n_r)[ok])
-    p = m["p_success"].values
-    both = ok & np.isfinite(p)
-    assert np.all(m["p_success_invalid_as_failure"].values[both] <= p[both] + 1e-12)
-    assert np.all(p[both] <= m["p_success_invalid_as_success"].values[both] + 1e-12)
+def test_bounds_with_invalid_runs() -> None:
+    """One cell of 10 runs: 6 valid of which 4 climbed, 4 invalid (statuses 1-3)."""
+    status = np.array([0, 0, 0, 0, 0, 0, 1, 2, 3, 1], dtype=np.int8)
+    climbed = np.array([1, 1, 1, 1, 0, 0, 0, 0, 0, 0], dtype=np.int8)
+    n = status.size
+    runs = xr.Dataset(
+        {
+            "status": ("run", status),
+            "climbed": ("run", climbed),
+            "progress_ratio": ("run", np.linspace(-1, 1, n)),
+            "mean_speed": ("run", np.zeros(n)),
+        },
+        coords={"shape": ("run", ["cuboid"] * n), "substrate": ("run", ["paper"] * n), "incline_deg": ("run", np.full(n, 10.0))},
+    )
+    c = maps(runs).isel(shape=0, substrate=0, incline_deg=0)
+    assert (int(c["n_success"]), int(c["n_valid"]), int(c["n_failed"])) == (4, 6, 4)
+    assert float(c["p_success"]) == 4 / 6
+    assert float(c["p_success_invalid_as_failure"]) == 4 / 10
+    assert float(c["p_success_invalid_as_success"]) == 8 / 10

@@ -129,7 +129,7 @@ def test_summarize_rejects_bad_arguments() -> None:
             tumblemc.summarize(ds, **kw)
 
 
-def _synthetic(speed: float, freq: float = 2.0, dt: float = 1e-3, duration: float = 2.0) -> "xr.Dataset":
+def _synthetic(speed: float, freq: float = 2.0, dt: float = 1e-3, duration: float = 2.0) -> xr.Dataset:
     import xarray as xr
 
     t = np.arange(round(duration / dt) + 1) * dt

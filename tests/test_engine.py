@@ -339,7 +339,7 @@ def test_a_batch_that_raises_is_recorded_row_by_row(monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(eng, "simulate_rows", flaky)
     rows = ({"preset": "paper", "freq_hz": 10.0, "mu": 0.3}, {"preset": "paper", "freq_hz": 10.0, "mu": 0.123})
     task = eng.Task("main", "k", "cuboid", (0, 1), rows, TimeGrid())
-    kind, run, out = eng.execute_task(task)
+    _, run, out = eng.execute_task(task)
     assert run.tolist() == [0, 1] and out["status"].tolist() == [0, 3]
     assert "boom" in out["error"][1] and np.isnan(out["progress_ratio"][1])
 

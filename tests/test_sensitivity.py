@@ -20,11 +20,10 @@ import pytest
 import xarray as xr
 
 from tumblemc.plotting_study import plot_prim, plot_sobol, plot_success_vs_parameter
-from tumblemc.sampling import PHYSICAL_RANGE, load_config
+from tumblemc.sampling import PHYSICAL_RANGE, load_config, nominal_value
 from tumblemc.sensitivity import (
     failure_region,
     logistic_summary,
-    map_unit_samples,
     prim_box,
     rank_correlation,
     saltelli_design,
@@ -48,12 +47,15 @@ from tumblemc.testing import (
 # REGRESSION: literature values of the Ishigami indices (a = 7, b = 0.1) to 4 decimals
 ISHIGAMI_LITERATURE = {"S1": (0.3139, 0.4424, 0.0), "ST": (0.5576, 0.4424, 0.2437)}
 LITERATURE_ATOL = 5e-5
-# STATISTICAL: Ishigami at n = 2**12 base rows; bootstrap SEs are ~0.02 for S1 and
-# 0.007-0.02 for ST, so 0.06 is about 3 SE of the noisiest index.
+# STATISTICAL: Ishigami at n = 2**12 base rows; every index within 3 of its own
+# bootstrap standard errors (measured: at most 0.7 SE)
 ISHIGAMI_N = 2**12
-ISHIGAMI_STAT_ATOL = 0.06
-# STATISTICAL: linear additive model at n = 2**10 (SE of S1 ~0.01-0.02)
-LINEAR_STAT_ATOL = 0.05
+ISHIGAMI_N_SE = 3.0
+# REGRESSION (fixed seed): linear additive model at n = 2**10; measured errors 1.4e-4 (S1)
+# and 3e-8 (ST: Jansen's estimator is exact for an additive model up to the sampling of
+# (A_i - B_i)^2)
+LINEAR_S1_ATOL = 1e-3
+LINEAR_ST_ATOL = 1e-6
 # STATISTICAL: ~390 valid runs per cell; SE of Spearman rho under independence is
 # 1 / sqrt(n - 1) ~ 0.05, so |rho| < 0.2 is 4 SE; logistic coefficients within 4 SE.
 RHO_NULL_ATOL = 0.2
@@ -121,10 +123,11 @@ def test_sobol_rows_map_config_distributions() -> None:
     U, rows = sobol_rows(config, n, 3, "cuboid", "aluminum", 30.0)
     assert U.shape == (n * (d + 2), d) and len(rows) == U.shape[0]
     np.testing.assert_array_equal(U, saltelli_design(n, d, 3).stack())
-    values = map_unit_samples(config, U, "aluminum", 20.0)
     for j, unc in enumerate(config.uncertain):
         col = np.array([r[unc.param] for r in rows])
-        np.testing.assert_array_equal(col, values[unc.param])
+        # the config's distribution at the preset's nominal value, applied to the unit column
+        expect = unc.resolve(nominal_value(unc.param, "aluminum", 20.0)).ppf(U[:, j])
+        np.testing.assert_array_equal(col, expect)
         r = PHYSICAL_RANGE[unc.param]
         assert np.all([r.contains(v) for v in col])
         # a monotone map: the unit column and the values are in the same order
@@ -152,7 +155,7 @@ def test_sobol_indices_ishigami() -> None:
     for key in ("S1", "ST"):
         est, lo, hi = ind[key].values, ind[f"{key}_lower"].values, ind[f"{key}_upper"].values
         assert np.all((lo <= ref[key]) & (ref[key] <= hi)), (key, est, lo, hi, ref[key])
-        np.testing.assert_allclose(est, ref[key], atol=ISHIGAMI_STAT_ATOL)
+        assert np.all(np.abs(est - ref[key]) < ISHIGAMI_N_SE * ind[f"{key}_se"].values), (key, est, ref[key])
     for name, v in ind.data_vars.items():
         assert v.attrs["units"] == "1" and v.attrs["long_name"], name
 
@@ -162,8 +165,8 @@ def test_sobol_indices_linear_additive() -> None:
     des = saltelli_design(2**10, 4, seed=2)
     ind = sobol_indices(*split_saltelli(linear_additive(des.stack(), c), 4), n_boot=200)
     ref = linear_indices(c)
-    np.testing.assert_allclose(ind["S1"].values, ref["S1"], atol=LINEAR_STAT_ATOL)
-    np.testing.assert_allclose(ind["ST"].values, ref["ST"], atol=LINEAR_STAT_ATOL)
+    np.testing.assert_allclose(ind["S1"].values, ref["S1"], atol=LINEAR_S1_ATOL)
+    np.testing.assert_allclose(ind["ST"].values, ref["ST"], atol=LINEAR_ST_ATOL)
     # REGRESSION: an input with no effect has ST exactly 0 (yA == yAB_i row by row)
     assert ind["ST"].values[3] == 0.0
 
@@ -276,7 +279,8 @@ def test_failure_region_of_a_study_cell() -> None:
     runs = synthetic_runs()
     sep = failure_region(runs, **SYNTHETIC_SEPARATED)
     assert set(sep.box) == {"mu"} and sep.density == 1.0 and sep.coverage > 0.95
-    assert sep.box["mu"][0] == -np.inf and abs(sep.box["mu"][1] - 0.3) < 0.01  # climbs iff mu > 0.3
+    # climbs iff mu > 0.3: a box of density 1 cannot reach past 0.3
+    assert sep.box["mu"][0] == -np.inf and 0.3 - 0.01 < sep.box["mu"][1] <= 0.3
     with pytest.raises(ValueError, match="nothing to find"):
         failure_region(runs, **SYNTHETIC_ALL_SUCCESS)
 
@@ -319,4 +323,6 @@ def test_robot_sobol_end_to_end_small() -> None:
     )
     idx = robot_sobol(cfg, "cuboid", "paper", 10.0, n=4, n_boot=50)
     assert list(idx["parameter"].values) == list(cfg.uncertain_names)
-    assert idx.attrs["n_used"] + idx.attrs["n_dropped"] == 4
+    # every run of the design ran and gave a finite progress ratio
+    assert idx.attrs["n_used"] == 4 and idx.attrs["n_dropped"] == 0
+    assert np.all(np.isfinite(idx["ST"].values)) and np.all(np.isfinite(idx["S1"].values))
