@@ -412,6 +412,33 @@ def _check_arcs(arcs: Any, v: np.ndarray) -> dict[int, float]:
     return out
 
 
+def _arc_crosses_neighbour(v: np.ndarray, arcs: dict[int, _Arc]) -> np.ndarray | None:
+    """A point where an arc meets a straight neighbouring edge other than at their shared
+    vertex, or None. The edge's line through the shared vertex ``p`` meets the arc's
+    circle once more, at ``p + t d`` with ``t = -2 d.(p - centre)`` (``d`` unit, pointing
+    along the edge away from ``p``); it counts if it lies on the edge and on the arc."""
+    n = len(v)
+    size = float(np.ptp(v, axis=0).max())
+    for k, arc in arcs.items():
+        ends = []
+        if (k - 1) % n not in arcs:
+            ends.append((v[k], v[(k - 1) % n]))
+        if (k + 1) % n not in arcs:
+            ends.append((v[(k + 1) % n], v[(k + 2) % n]))
+        span = arc.th1 - arc.th0
+        for p, far in ends:
+            length = float(np.linalg.norm(far - p))
+            d = (far - p) / length
+            t = -2.0 * float(d @ (p - arc.centre))
+            if not REL_TOL * size < t <= length:
+                continue
+            x = p + t * d
+            u = (math.atan2(x[1] - arc.centre[1], x[0] - arc.centre[0]) - arc.th0 + math.pi) % (2 * math.pi) - math.pi
+            if REL_TOL < u / span < 1.0 - REL_TOL:
+                return x
+    return None
+
+
 def _outline(v: np.ndarray, arcs: dict[int, _Arc], step: float) -> np.ndarray:
     """Closed outline: vertices with arcs sampled at most ``step`` rad apart."""
     pts = []
@@ -582,9 +609,13 @@ def _face_order(faces: list[_HullFace]) -> list[tuple[str, _HullFace]]:
     return [(_GROUPS[g][0], f) for g, _, f in keyed]
 
 
-def _aluminum_robot_ipm() -> np.ndarray:
-    length, width, height = ALUMINUM_ROBOT_LWH_M
+def _cuboid_ipm(length: float, width: float, height: float) -> np.ndarray:
+    """Inertia per mass of a uniform cuboid about its centre (body axes x = W, y = L, z = H)."""
     return np.diag([length**2 + height**2, width**2 + height**2, width**2 + length**2]) / 12.0
+
+
+def _aluminum_robot_ipm() -> np.ndarray:
+    return _cuboid_ipm(*ALUMINUM_ROBOT_LWH_M)
 
 
 def extruded(
@@ -678,10 +709,16 @@ def extruded(
     arc_geo = {k: _make_arc(v[k], v[(k + 1) % n], r) for k, r in radii.items()}
     outline = _outline(v, arc_geo, OUTLINE_STEP_RAD)
     hit = _self_intersection(outline[:-1]) if radii else None
-    if hit is not None:
+    near = None if hit is None else (outline[hit[0]], outline[hit[1]])
+    if near is None and radii:
+        # an arc can leave its vertex on the wrong side of the neighbouring edge and come
+        # back within one sampling step: intersect each arc's circle with those edges exactly
+        cross_at = _arc_crosses_neighbour(v, arc_geo)
+        near = None if cross_at is None else (cross_at, cross_at)
+    if near is not None:
         raise ValueError(
-            f"profile is self-intersecting with the arcs={dict(arcs or {})!r}: its outline near {outline[hit[0]].tolist()} and "
-            f"{outline[hit[1]].tolist()} crosses or touches itself (allowed: arcs that keep the outline simple)"
+            f"profile is self-intersecting with the arcs={dict(arcs or {})!r}: its outline near {near[0].tolist()} and "
+            f"{near[1].tolist()} crosses or touches itself (allowed: arcs that keep the outline simple)"
         )
 
     # centroid and moments about it, exactly (so that a rectangle gives cuboid()'s bits)
@@ -783,7 +820,7 @@ def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6
     )
     verts = np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     outline = np.array([[-hy, -hz], [hy, -hz], [hy, hz], [-hy, hz], [-hy, -hz]])
-    ipm = np.diag([length**2 + height**2, width**2 + height**2, width**2 + length**2]) / 12.0
+    ipm = _cuboid_ipm(length, width, height)
     return Shape("cuboid", (Piece(cons, verts),), outline, width, 2 * (length + height), ipm, "profile", length * height)
 
 
