@@ -34,6 +34,7 @@ from matplotlib.patches import FancyArrowPatch, Polygon
 from matplotlib.ticker import FuncFormatter
 from PIL import Image
 
+from .params import magnetisation_dir
 from .plotting import MODE_LABELS, UM, _run_label, _shape_of, side_view_outline
 from .shapes import Shape
 from .simulate import plane_frame, quat_to_matrix
@@ -117,10 +118,7 @@ def _magnetisation_body(attrs: dict[str, Any]) -> np.ndarray | None:
     if "offset_deg" not in attrs:
         return None
     k = np.asarray(attrs.get("offset_axis", (1.0, 0.0, 0.0)), dtype=float).reshape(3)
-    k = k / np.linalg.norm(k)
-    y = np.array([0.0, 1.0, 0.0])
-    phi = math.radians(float(attrs["offset_deg"]))
-    return y * math.cos(phi) + np.cross(k, y) * math.sin(phi) + k * (k @ y) * (1.0 - math.cos(phi))
+    return magnetisation_dir(float(attrs["offset_deg"]), k / np.linalg.norm(k))
 
 
 def _length_text(x_m: float, mm: bool) -> str:

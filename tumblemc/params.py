@@ -60,6 +60,16 @@ def _check_number(name: str, value: Any, rule: str, lo: float | None = None, hi:
     return x
 
 
+def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> np.ndarray:
+    """Unit body-frame magnetisation: the length axis tilted by ``offset_deg`` about the
+    unit ``offset_axis`` (Rodrigues; MODEL.md: ``(0, cos phi, sin phi)`` for the width
+    axis)."""
+    k = np.asarray(offset_axis, dtype=float).reshape(3)
+    y = np.array([0.0, 1.0, 0.0])
+    phi = math.radians(offset_deg)
+    return y * math.cos(phi) + np.cross(k, y) * math.sin(phi) + k * (k @ y) * (1.0 - math.cos(phi))
+
+
 @dataclass(frozen=True)
 class Params:
     """Physical parameters of one robot on one substrate (paper Tables 1 and 3; SI).
@@ -124,12 +134,8 @@ class Params:
         return dataclasses.replace(self, **overrides)
 
     def magnetisation_dir(self) -> np.ndarray:
-        """Unit body-frame magnetisation: the length axis tilted by ``offset_deg`` about
-        ``offset_axis`` (MODEL.md: ``(0, cos phi, sin phi)`` for the width axis)."""
-        k = np.asarray(self.offset_axis)
-        y = np.array([0.0, 1.0, 0.0])
-        phi = math.radians(self.offset_deg)
-        return y * math.cos(phi) + np.cross(k, y) * math.sin(phi) + k * (k @ y) * (1.0 - math.cos(phi))
+        """Unit body-frame magnetisation (:func:`magnetisation_dir`)."""
+        return magnetisation_dir(self.offset_deg, self.offset_axis)
 
     def as_attrs(self) -> dict[str, Any]:
         """Flat netCDF-friendly attributes (SI)."""

@@ -183,8 +183,9 @@ def _strip_data(ds: xr.Dataset, shape: str | Shape | None, count: int) -> dict[s
     """Outlines (µm, spread along s), centre-of-mass and contact points of the strip."""
     t = ds["time"].values
     idx = _snapshot_indices(len(t), count)
-    outlines = [side_view_outline(ds, shape, int(i)) for i in idx]
-    length = float(np.ptp(np.asarray(_shape_of(ds, shape).outline)[:, 0]))
+    shp = _shape_of(ds, shape)  # built once, not per snapshot
+    outlines = [side_view_outline(ds, shp, int(i)) for i in idx]
+    length = float(np.ptp(np.asarray(shp.outline)[:, 0]))
     offsets, layout, extra = _strip_offsets(outlines, length)
     size = max([float(np.ptp(s)) for s, _ in outlines] + [length])
     fr = plane_frame(float(ds.attrs.get("incline_deg", 0.0)))

@@ -882,7 +882,11 @@ def cell_key(cell: Mapping[str, Any]) -> str:
 
 def run_key(cell: Mapping[str, Any], sample: int) -> int:
     """Stable int64 id (>= 0) of a run: sha256 of its cell and sample index."""
-    return int.from_bytes(_digest(f"{_canonical_cell(cell)}#{int(sample)}")[:8], "little") & (2**63 - 1)
+    return _run_key(_canonical_cell(cell), sample)
+
+
+def _run_key(canon: str, sample: int) -> int:
+    return int.from_bytes(_digest(f"{canon}#{int(sample)}")[:8], "little") & (2**63 - 1)
 
 
 def _cell_words(cell: Mapping[str, Any]) -> list[int]:
@@ -992,7 +996,8 @@ def design(config: StudyConfig) -> xr.Dataset:
             if dist is None:
                 dist = cache[(unc.param, nom)] = unc.resolve(nom)
             values[j, sl] = dist.ppf(u[:, j])
-        keys[sl] = [run_key(cell, s) for s in range(n)]
+        canon = _canonical_cell(cell)  # once per cell, not per sample
+        keys[sl] = [_run_key(canon, s) for s in range(n)]
         ckeys.append(cell_key(cell))
     if len(np.unique(keys)) != total:  # 2**-63 per pair; checked, not assumed
         raise RuntimeError("run_key collision: change SAMPLING_SCHEME's hashing")
