@@ -906,31 +906,29 @@ def prim_box(
         nb = int(np.count_nonzero(inbox))
         k = max(1, math.ceil(alpha * nb - 1e-9))
         xb, tb = x[inbox], t[inbox]
-        best: tuple[float, int, int, int] | None = None  # (density, -removed, -j, side)
-        best_cut: tuple[np.ndarray, float] | None = None
+        # ((density, -removed, -j, -side), kept rows, bound) of the best peel so far
+        best: tuple[tuple[float, int, int, int], np.ndarray, float] | None = None
         for j in range(d if k < nb else 0):
             s = np.sort(xb[:, j])
             for side in (0, 1):
                 if side == 0:
                     cut = s[k]
                     keep = xb[:, j] >= cut
-                    gone = s[s < cut]
-                    bound = 0.5 * (gone[-1] + cut) if gone.size else cut
                 else:
                     cut = s[nb - 1 - k]
                     keep = xb[:, j] <= cut
-                    gone = s[s > cut]
-                    bound = 0.5 * (gone[0] + cut) if gone.size else cut
-                kept = int(np.count_nonzero(keep))
-                if kept == nb or kept < n_min or kept == 0:
+                kept = int(np.count_nonzero(keep))  # >= 1: the cut point itself stays
+                if kept == nb or kept < n_min:  # nothing peeled (ties), or too small a box
                     continue
+                # something was peeled: the bound lies midway to the nearest peeled point
+                bound = 0.5 * (s[s < cut][-1] + cut) if side == 0 else 0.5 * (s[s > cut][0] + cut)
                 key = (int(np.count_nonzero(tb[keep])) / kept, -(nb - kept), -j, -side)
-                if best is None or key > best:
-                    best, best_cut = key, (keep, float(bound))
-        if best is None or best_cut is None:
+                if best is None or key > best[0]:
+                    best = (key, keep, float(bound))
+        if best is None:
             break
-        j, side = -best[2], -best[3]
-        keep, bound = best_cut
+        key, keep, bound = best
+        j, side = -key[2], -key[3]
         where = np.flatnonzero(inbox)
         inbox[where[~keep]] = False
         if side == 0:
