@@ -116,7 +116,7 @@ def test_every_shape_runs_with_no_failed_steps(shape: str, preset: str) -> None:
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="known gap: the curved robot rolls down the 45 deg aluminum incline at ~6 m/s spinning at 7e3-2e4 rad/s; 1 of 40000 steps does not converge",
+    reason="known gap: the curved robot rolls down the 45 deg aluminum incline at ~6 m/s spinning at 7e3-2e4 rad/s; 12 of 40000 steps do not converge (docs/validation.md)",
 )
 def test_curved_aluminum_45_deg_no_failed_steps() -> None:
     s = tumblemc.summarize(tumblemc.simulate(shape="curved", preset="aluminum", incline_deg=45.0, duration_s=2.0))

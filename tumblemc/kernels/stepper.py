@@ -102,10 +102,17 @@ STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7)
 STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False)
 STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1)  # first mu
 N_ATTEMPTS = len(STRATEGY_GUESS)
+FLIGHT_BEFORE = 6  # a step whose explicit prediction penetrates tries free flight before this attempt
+EARLY_FLIGHT_TURN = 0.05  # ... when the body turns by at most this angle (rad) in the step
 FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
 SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
+
+
+@jit
+def _norm3(a):  # type: ignore[no-untyped-def]
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
 @jit
@@ -374,7 +381,11 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     A step is first predicted in free flight (the same residual with no contact block);
     if every support point stays above the plane that prediction is the exact solution
     of the step (MODEL.md, numerical traps). Otherwise the full NCP is solved from the
-    warm start. A step whose solve fails is retried as halved sub-steps down to
+    warm start, then by the fresh guesses of ``STRATEGY_GUESS``. When the explicit
+    prediction hid a lift-off (it penetrates, yet the robot leaves the plane), the
+    free-flight solution is tried again before the costly smoothing strategies
+    (``FLIGHT_BEFORE``) if the body turns by at most ``EARLY_FLIGHT_TURN`` in the step,
+    and after every strategy otherwise. A step whose solve fails is retried as halved sub-steps down to
     ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
     as failed. Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
@@ -490,6 +501,27 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     zwarm[i] = z[i]
                 res_best = math.inf
                 for attempt in range(N_ATTEMPTS):
+                    if attempt == FLIGHT_BEFORE and not clear and _norm3(state[10:13]) * hc <= EARLY_FLIGHT_TURN:
+                        # lift-off that the explicit pre-check hid: before the costly
+                        # smoothing strategies, the free-flight solution, if it clears the
+                        # plane and turns the body little (no corner can dip through the
+                        # plane within the step), is the exact solution of the step
+                        for i in range(6):
+                            z6[i] = zsave[i]
+                        st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+                        acc_nit += iters[0]
+                        if (
+                            st6 == ST_OK
+                            and _norm3(z6[3:6]) * hc <= EARLY_FLIGHT_TURN
+                            and _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp)
+                        ):
+                            for i in range(n):
+                                z[i] = zsave[i]
+                            _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+                            flight = True
+                            st = ST_OK
+                            res = res6
+                            break
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
                         # smooth motion: extrapolate the last two solutions (O(h^2) warm start)
