@@ -122,6 +122,12 @@ def test_solver_options_need_integers() -> None:
         tumblemc.SolverOptions(max_iter=2.5)  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("value", [-1e-6, math.nan, 2.0])
+def test_solver_options_reject_bad_accept_tol(value: float) -> None:
+    with pytest.raises(ValueError, match="accept_tol"):
+        tumblemc.SolverOptions(accept_tol=value)
+
+
 def test_summarize_rejects_bad_arguments() -> None:
     ds = tumblemc.simulate(duration_s=2.0, dt=5e-4)
     for kw in ({"transient_periods": math.nan}, {"transient_periods": -1.0}, {"min_window_periods": -1.0}, {"threshold": math.inf}):

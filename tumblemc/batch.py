@@ -35,6 +35,7 @@ OUTCOMES: dict[str, type] = {
     "substeps": np.int64,
     "fallbacks": np.int64,
     "failed_steps": np.int64,
+    "loose_steps": np.int64,
     "max_penetration": np.float64,
 }
 
@@ -149,6 +150,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
             res["fallbacks"][i] = int(o[KB.B_FALLBACK])
             res["failed_steps"][i] = int(o[KB.B_FAILED])
             res["max_penetration"][i] = o[KB.B_PEN] * s.units.length
+            res["loose_steps"][i] = int(o[KB.B_LOOSE])
     res["error"] = errors
     return res
 

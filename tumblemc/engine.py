@@ -62,6 +62,7 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total"},
     "fallbacks": {"units": "1", "long_name": "damped or gradient Newton steps and extra solve strategies, total"},
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
+    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol"},
     "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
     "error": {"long_name": "why the run could not start (empty when it ran)"},
 }

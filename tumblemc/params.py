@@ -174,6 +174,11 @@ class SolverOptions:
     max_failed_steps : stop the run after this many failed steps (0: never stop). Studies
         use 1: a run with a failed step is invalid there anyway, and a step that fails at
         the smallest sub-step leaves the rest of the step at that sub-step (costly).
+    accept_tol : a step that no strategy solves to ``tol`` even at the smallest sub-step is
+        kept, and counted as a loose step instead of a failed one, when the max-norm of the
+        model's residual at its best attempt is at most this (at metres per second the
+        residual can stall just above ``tol``, where rounding sets a floor). 0: every such
+        step fails, as before 2026-11-21.
     """
 
     tol: float = 1e-9
@@ -182,6 +187,7 @@ class SolverOptions:
     armijo: float = 1e-4
     min_step: float = 1e-10
     max_failed_steps: int = 0
+    accept_tol: float = 1e-6
 
     def __post_init__(self) -> None:
         _check_number("tol", self.tol, _POSITIVE)
@@ -194,6 +200,7 @@ class SolverOptions:
         _check_number("armijo", self.armijo, "", 1e-12, 0.5)
         _check_number("min_step", self.min_step, "", 1e-16, 0.5)
         _check_number("max_failed_steps", self.max_failed_steps, "", 0, 1e12)
+        _check_number("accept_tol", self.accept_tol, "", 0.0, 1.0)
 
     def as_array(self) -> np.ndarray:
         from .kernels import layout as L
@@ -205,6 +212,7 @@ class SolverOptions:
         a[L.O_ARMIJO] = self.armijo
         a[L.O_MINSTEP] = self.min_step
         a[L.O_MAXFAIL] = self.max_failed_steps
+        a[L.O_ACCEPT] = self.accept_tol
         return a
 
 

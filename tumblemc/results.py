@@ -35,6 +35,10 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt) in the step"},
     "penetration": {"units": "m", "long_name": "depth of the robot below the plane at the end of the step"},
     "failed": {"units": "1", "long_name": "steps whose solve did not converge at the smallest sub-step"},
+    "loose": {
+        "units": "1",
+        "long_name": "steps kept at the smallest sub-step with a residual between the solver's tol and accept_tol",
+    },
     "field": {"units": "T", "long_name": "magnetic flux density B (world frame)"},
 }
 

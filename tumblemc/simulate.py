@@ -281,6 +281,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "substeps": ("time", rows[:, L.R_SUB].astype(np.int32)),
             "penetration": ("time", rows[:, L.R_PEN] * u.length),
             "failed": ("time", rows[:, L.R_FAIL].astype(np.int32)),
+            "loose": ("time", rows[:, L.R_LOOSE].astype(np.int32)),
             "field": (xyz, field),
         },
         coords={"time": t, "xyz": ["x", "y", "z"], "quat": ["w", "x", "y", "z"]},
@@ -394,7 +395,8 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
     dict
         ``mean_speed`` (uphill, m/s), ``ideal_speed`` (hull perimeter x f, m/s),
         ``progress_ratio``, ``climbed`` (``progress_ratio >= threshold``),
-        ``max_penetration`` (m), ``failed_steps``, ``mean_newton_iterations``,
+        ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
+        between the solver's ``tol`` and ``accept_tol``), ``mean_newton_iterations``,
         ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
         ``status`` (0: ok; otherwise the run stopped early, speed and ratio are NaN and
         ``climbed`` is False).
@@ -432,6 +434,7 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         "climbed": bool(ratio >= threshold),
         "max_penetration": float(ds["penetration"].max()),
         "failed_steps": int(ds.attrs["failed_steps"]),
+        "loose_steps": int(ds["loose"].sum()) if "loose" in ds else 0,
         "mean_newton_iterations": float(ds["newton_iterations"].sum()) / n_steps,
         "mean_slip_speed": float(ds["slip_speed"].values[i0:].mean()),
         "substeps": int(ds["substeps"].sum()),

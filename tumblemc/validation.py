@@ -72,6 +72,7 @@ def _robust(rep: Report, name: str, s: dict[str, Any], wall: float) -> None:
         {
             "scenario": name,
             "failed_steps": s["failed_steps"],
+            "loose_steps": s["loose_steps"],
             "substeps": s["substeps"],
             "fallbacks": s["fallbacks"],
             "mean_newton_iterations": round(s["mean_newton_iterations"], 3),
@@ -336,6 +337,7 @@ def convergence(quick: bool = False) -> list[dict[str, Any]]:
                         "progress_ratio": s["progress_ratio"],
                         "climbed": s["climbed"],
                         "failed_steps": s["failed_steps"],
+                        "loose_steps": s["loose_steps"],
                         "substeps": s["substeps"],
                         "wall_s": wall,
                     }

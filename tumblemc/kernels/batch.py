@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import jit
-from .layout import P_U, R_FALLBACK, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
+from .layout import P_U, R_FALLBACK, R_LOOSE, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
 from .stepper import run
 
 # ---- summary columns (one row per run) ----------------------------------------------
@@ -22,7 +22,8 @@ B_NIT = 4  # Newton iterations, total
 B_SUB = 5  # extra sub-steps, total
 B_FALLBACK = 6  # damped/gradient fallbacks, total
 B_PEN = 7  # max penetration (scaled length)
-N_BATCH_OUT = 8
+B_LOOSE = 8  # steps kept at a residual between tol and accept_tol, total
+N_BATCH_OUT = 9
 
 # ---- run status (also the engine's ``status`` flag values) -------------------------
 BATCH_OK = 0  # finished, every step converged
@@ -87,7 +88,9 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         sub = 0.0
         fb = 0.0
         pen = 0.0
+        loose = 0.0
         for r in range(1, rows):
+            loose += rec[r, R_LOOSE]
             nit += rec[r, R_NIT]
             sub += rec[r, R_SUB]
             fb += rec[r, R_FALLBACK]
@@ -109,6 +112,7 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         out[b, B_SUB] = sub
         out[b, B_FALLBACK] = fb
         out[b, B_PEN] = pen
+        out[b, B_LOOSE] = loose
     return 0
 
 

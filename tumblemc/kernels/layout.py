@@ -68,7 +68,8 @@ O_MAXDEPTH = 2
 O_ARMIJO = 3
 O_MINSTEP = 4
 O_MAXFAIL = 5  # stop the run after this many failed steps (0: never)
-N_OPT = 6
+O_ACCEPT = 6  # a step unsolved at the smallest sub-step is kept, not failed, if its best residual is at most this
+N_OPT = 7
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0
@@ -95,4 +96,5 @@ R_SUB = 22  # extra sub-steps in the interval
 R_PEN = 23  # max penetration in the interval
 R_FAIL = 24  # steps in the interval with a sub-step that did not converge at the smallest size
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
-N_REC = 28
+R_LOOSE = 28  # steps in the interval kept at a residual between O_TOL and O_ACCEPT
+N_REC = 29

@@ -24,6 +24,7 @@ from .layout import (
     B_SIG,
     N_REC,
     N_SC,
+    O_ACCEPT,
     O_MAXDEPTH,
     O_MAXFAIL,
     O_MAXIT,
@@ -49,6 +50,7 @@ from .layout import (
     R_FAIL,
     R_FALLBACK,
     R_LN,
+    R_LOOSE,
     R_MODE,
     R_NIT,
     R_PEN,
@@ -416,6 +418,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         touching[:] = 1
     maxdepth = int(opts[O_MAXDEPTH])
     maxfail = int(opts[O_MAXFAIL])
+    accept_tol = opts[O_ACCEPT]
     # plain and projected attempts that have not converged after FAST_MAXIT iterations
     # rarely do: move on to the next strategy (the smoothing continuation and sub-steps
     # keep max_iter)
@@ -442,9 +445,10 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     acc_sub = 0
     acc_pen = 0.0
     acc_fail = 0
+    acc_loose = 0
 
     row = 0
-    _record(rec, row, t, state, 0.0, 0.0, 0.0, 0, 0.0, 0, 0.0, 0, 0, 0.0, 0, z, -1)
+    _record(rec, row, t, state, 0.0, 0.0, 0.0, 0, 0.0, 0, 0.0, 0, 0, 0.0, 0, z, -1, 0)
     status = ST_OK
     for step in range(n_steps):
         remaining = h
@@ -610,6 +614,16 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
                         st = ST_OK
                         res = res6
+                if st != ST_OK and res_best <= accept_tol:
+                    # no strategy reached tol, but the best attempt is within accept_tol:
+                    # keep it (a loose step) rather than sub-step. Where the residual
+                    # stalls just above tol (a rounding floor at metres per second), the
+                    # sub-steps fare worse: that floor grows as the step shrinks
+                    res = res_best
+                    for i in range(n):
+                        z[i] = zbest[i]
+                    st = ST_OK
+                    acc_loose += 1
                 if st != ST_OK and depth < maxdepth:
                     for i in range(n):
                         z[i] = zsave[i]
@@ -675,7 +689,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             break
         if (step + 1) % record_every == 0 or step == n_steps - 1:
             row += 1
-            _record(rec, row, t, state, lnsum, adh, area_prev, mode, slip, acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off)
+            _record(rec, row, t, state, lnsum, adh, area_prev, mode, slip, acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off, acc_loose)
+            acc_loose = 0
             acc_nit = 0
             acc_res = 0.0
             acc_fb = 0
@@ -686,7 +701,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
 
 
 @jit
-def _record(rec, row, t, state, lnsum, adh, area, mode, slip, nit, res, nfb, nsub, pen, nfail, z, ecp_off):  # type: ignore[no-untyped-def]
+def _record(rec, row, t, state, lnsum, adh, area, mode, slip, nit, res, nfb, nsub, pen, nfail, z, ecp_off, nloose):  # type: ignore[no-untyped-def]
     rec[row, R_T] = t
     for i in range(3):
         rec[row, R_X + i] = state[i]
@@ -706,6 +721,7 @@ def _record(rec, row, t, state, lnsum, adh, area, mode, slip, nit, res, nfb, nsu
     rec[row, R_SUB] = nsub
     rec[row, R_PEN] = max(pen, 0.0)
     rec[row, R_FAIL] = nfail
+    rec[row, R_LOOSE] = nloose
 
 
 def n_records(n_steps: int, record_every: int) -> int:
