@@ -689,7 +689,26 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             break
         if (step + 1) % record_every == 0 or step == n_steps - 1:
             row += 1
-            _record(rec, row, t, state, lnsum, adh, area_prev, mode, slip, acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off, acc_loose)
+            _record(
+                rec,
+                row,
+                t,
+                state,
+                lnsum,
+                adh,
+                area_prev,
+                mode,
+                slip,
+                acc_nit,
+                acc_res,
+                acc_fb,
+                acc_sub,
+                acc_pen,
+                acc_fail,
+                z,
+                ecp_off,
+                acc_loose,
+            )
             acc_loose = 0
             acc_nit = 0
             acc_res = 0.0
