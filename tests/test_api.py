@@ -122,7 +122,7 @@ def test_solver_options_need_integers() -> None:
         tumblemc.SolverOptions(max_iter=2.5)  # type: ignore[arg-type]
 
 
-@pytest.mark.parametrize("value", [-1e-6, math.nan, 2.0])
+@pytest.mark.parametrize("value", [-1e-6, math.nan, 2.0, 1e-12])
 def test_solver_options_reject_bad_accept_tol(value: float) -> None:
     with pytest.raises(ValueError, match="accept_tol"):
         tumblemc.SolverOptions(accept_tol=value)

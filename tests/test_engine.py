@@ -66,8 +66,20 @@ def test_batch_rows_equal_simulate_and_summarize() -> None:
         assert bool(res["climbed"][i]) == s["climbed"]
         assert res["substeps"][i] == s["substeps"]
         assert res["failed_steps"][i] == s["failed_steps"]
+        assert res["loose_steps"][i] == s["loose_steps"]
         assert res["max_penetration"][i] == s["max_penetration"]
         assert res["newton_iterations"][i] == pytest.approx(s["mean_newton_iterations"], rel=1e-12)
+
+
+def test_batch_and_simulate_count_the_same_loose_steps() -> None:
+    """The curved robot sliding down 35 deg aluminum has loose steps (SolverOptions.accept_tol):
+    the batch kernel's runs table and simulate/summarize must count the same ones."""
+    row = {"preset": "aluminum", "incline_deg": 35.0, "field_mT": 20.0, "freq_hz": 1.0}
+    res = simulate_rows("curved", [row], TimeGrid(periods=2.0, transient_periods=1.0))
+    s = tumblemc.summarize(tumblemc.simulate(shape="curved", duration_s=2.0, **row))
+    assert res["status"][0] == s["status"] == 0
+    assert res["failed_steps"][0] == s["failed_steps"] == 0
+    assert res["loose_steps"][0] == s["loose_steps"] > 0
 
 
 def test_bad_row_is_recorded_not_raised() -> None:

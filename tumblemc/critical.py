@@ -36,6 +36,7 @@ CRITICAL_OUTCOMES: dict[str, type] = {
     "newton_iterations": np.float64,
     "substeps": np.int64,
     "failed_steps": np.int64,
+    "loose_steps": np.int64,
 }
 
 CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
@@ -58,6 +59,7 @@ CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
     "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step over the run's simulations"},
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total over the run's simulations"},
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step, total"},
+    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol, total"},
 }
 
 
@@ -80,6 +82,7 @@ def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, l
         nit_sum[idx] += np.nan_to_num(res["newton_iterations"])
         out["substeps"][idx] += res["substeps"]
         out["failed_steps"][idx] += res["failed_steps"]
+        out["loose_steps"][idx] += res["loose_steps"]
         for j, i in enumerate(idx):
             if res["error"][j] and not err[i]:
                 err[i] = res["error"][j]

@@ -174,11 +174,11 @@ class SolverOptions:
     max_failed_steps : stop the run after this many failed steps (0: never stop). Studies
         use 1: a run with a failed step is invalid there anyway, and a step that fails at
         the smallest sub-step leaves the rest of the step at that sub-step (costly).
-    accept_tol : a step that no strategy solves to ``tol`` even at the smallest sub-step is
-        kept, and counted as a loose step instead of a failed one, when the max-norm of the
-        model's residual at its best attempt is at most this (at metres per second the
-        residual can stall just above ``tol``, where rounding sets a floor). 0: every such
-        step fails, as before 2026-11-21.
+    accept_tol : when no strategy solves a (sub-)step to ``tol``, its best attempt is kept
+        at once, without halving, and the step counted as loose, if the max-norm of the
+        model's residual there is at most this (at metres per second the residual can stall
+        just above ``tol``, and its floor grows as the step shrinks). Allowed: 0, or from
+        ``tol`` to 1. 0 restores the rule before 2026-11-21: halve, then fail.
     """
 
     tol: float = 1e-9
@@ -201,6 +201,8 @@ class SolverOptions:
         _check_number("min_step", self.min_step, "", 1e-16, 0.5)
         _check_number("max_failed_steps", self.max_failed_steps, "", 0, 1e12)
         _check_number("accept_tol", self.accept_tol, "", 0.0, 1.0)
+        if 0.0 < self.accept_tol < self.tol:
+            raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
     def as_array(self) -> np.ndarray:
         from .kernels import layout as L

@@ -37,7 +37,7 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
     "failed": {"units": "1", "long_name": "steps whose solve did not converge at the smallest sub-step"},
     "loose": {
         "units": "1",
-        "long_name": "steps kept at the smallest sub-step with a residual between the solver's tol and accept_tol",
+        "long_name": "steps with a (sub-)step kept, without halving, at a residual between the solver's tol and accept_tol",
     },
     "field": {"units": "T", "long_name": "magnetic flux density B (world frame)"},
 }

@@ -68,7 +68,7 @@ O_MAXDEPTH = 2
 O_ARMIJO = 3
 O_MINSTEP = 4
 O_MAXFAIL = 5  # stop the run after this many failed steps (0: never)
-O_ACCEPT = 6  # a step unsolved at the smallest sub-step is kept, not failed, if its best residual is at most this
+O_ACCEPT = 6  # an unsolved (sub-)step is kept at once, as loose, if its best residual is at most this (0: never)
 N_OPT = 7
 
 # ---- solver status codes -------------------------------------------------------------
@@ -96,5 +96,5 @@ R_SUB = 22  # extra sub-steps in the interval
 R_PEN = 23  # max penetration in the interval
 R_FAIL = 24  # steps in the interval with a sub-step that did not converge at the smallest size
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
-R_LOOSE = 28  # steps in the interval kept at a residual between O_TOL and O_ACCEPT
+R_LOOSE = 28  # steps in the interval with a (sub-)step kept at a residual between O_TOL and O_ACCEPT
 N_REC = 29

@@ -389,7 +389,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     (``FLIGHT_BEFORE``) if the body turns by at most ``EARLY_FLIGHT_TURN`` in the step,
     and after every strategy otherwise. A step whose solve fails is retried as halved sub-steps down to
     ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
-    as failed. Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
+    as failed. Before any halving, an attempt whose residual is within ``opts[O_ACCEPT]``
+    is kept instead (a loose step; a step counts as loose at most once, and not when it
+    also failed). Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
     """
     state = state0
@@ -455,6 +457,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         hc = h
         depth = 0
         step_failed = False
+        step_loose = False
         while remaining > 1e-12 * h:
             if hc > remaining:
                 hc = remaining
@@ -504,6 +507,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 for i in range(n):
                     zwarm[i] = z[i]
                 res_best = math.inf
+                flight_failed = False  # the early free-flight check ran and did not clear
                 for attempt in range(N_ATTEMPTS):
                     if attempt == FLIGHT_BEFORE and not clear and _norm3(state[10:13]) * hc <= EARLY_FLIGHT_TURN:
                         # lift-off that the explicit pre-check hid: before the costly
@@ -514,11 +518,13 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                             z6[i] = zsave[i]
                         st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
                         acc_nit += iters[0]
-                        if (
-                            st6 == ST_OK
-                            and _norm3(z6[3:6]) * hc <= EARLY_FLIGHT_TURN
-                            and _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp)
-                        ):
+                        turn_ok = _norm3(z6[3:6]) * hc <= EARLY_FLIGHT_TURN
+                        flight_failed = turn_ok and not (
+                            st6 == ST_OK and _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp)
+                        )
+                        if st6 != ST_OK:
+                            flight_failed = True
+                        elif turn_ok and not flight_failed:
                             for i in range(n):
                                 z[i] = zsave[i]
                             _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
@@ -601,9 +607,10 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         res_best = res
                         for i in range(n):
                             zbest[i] = z[i]
-                if st != ST_OK and not clear:
+                if st != ST_OK and not clear and not flight_failed:
                     # lift-off that the explicit pre-check hid: the free-flight solution, if
-                    # it clears the plane, is the exact solution of the step
+                    # it clears the plane, is the exact solution of the step (also when the
+                    # early check refused it for turning too far)
                     for i in range(6):
                         z6[i] = zsave[i]
                     st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
@@ -623,7 +630,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     for i in range(n):
                         z[i] = zbest[i]
                     st = ST_OK
-                    acc_loose += 1
+                    step_loose = True
                 if st != ST_OK and depth < maxdepth:
                     for i in range(n):
                         z[i] = zsave[i]
@@ -685,6 +692,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         if step_failed:
             acc_fail += 1
             failed_total += 1
+        elif step_loose:
+            acc_loose += 1
         if status == ST_NAN or status == ST_STOPPED:
             break
         if (step + 1) % record_every == 0 or step == n_steps - 1:
