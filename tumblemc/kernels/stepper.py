@@ -306,6 +306,27 @@ def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb):  # type: i
 
 
 @jit
+def _lift_off(state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, max_turn, qn, Eq, Eqn, Jth, R, xend, tmp, tmp2, gb, Hb):  # type: ignore[no-untyped-def]
+    """Free flight for a step whose explicit prediction penetrates: solve it from ``zsave``
+    and, if it turns the body by at most ``max_turn`` (rad) and clears the plane, write it
+    into ``z`` (it is then the exact solution of the step). Returns ``(code, residual)``:
+    1 accepted, 0 the solve failed or the end pose does not clear, -1 it turns too far."""
+    for i in range(6):
+        z6[i] = zsave[i]
+    st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+    if st6 != ST_OK:
+        return 0, res6
+    if _norm3(z6[3:6]) * hc > max_turn:
+        return -1, res6
+    if not _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, xend, tmp):
+        return 0, res6
+    for i in range(z.shape[0]):
+        z[i] = zsave[i]
+    _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+    return 1, res6
+
+
+@jit
 def _contact_state(z, geo, prm, x, w, v, tmp, tmp2):  # type: ignore[no-untyped-def]
     """Contact mode, adhering area, total normal force, slip speed and ECP piece offset."""
     K = geo.pstart.shape[0] - 1
@@ -514,20 +535,13 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         # smoothing strategies, the free-flight solution, if it clears the
                         # plane and turns the body little (no corner can dip through the
                         # plane within the step), is the exact solution of the step
-                        for i in range(6):
-                            z6[i] = zsave[i]
-                        st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+                        code, res6 = _lift_off(
+                            state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, EARLY_FLIGHT_TURN,
+                            qn, Eq, Eqn, Jth, R, tmp3, tmp, tmp2, gb, Hb,
+                        )  # fmt: skip
                         acc_nit += iters[0]
-                        turn_ok = _norm3(z6[3:6]) * hc <= EARLY_FLIGHT_TURN
-                        flight_failed = turn_ok and not (
-                            st6 == ST_OK and _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp)
-                        )
-                        if st6 != ST_OK:
-                            flight_failed = True
-                        elif turn_ok and not flight_failed:
-                            for i in range(n):
-                                z[i] = zsave[i]
-                            _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+                        flight_failed = code == 0
+                        if code == 1:
                             flight = True
                             st = ST_OK
                             res = res6
@@ -611,14 +625,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     # lift-off that the explicit pre-check hid: the free-flight solution, if
                     # it clears the plane, is the exact solution of the step (also when the
                     # early check refused it for turning too far)
-                    for i in range(6):
-                        z6[i] = zsave[i]
-                    st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+                    code, res6 = _lift_off(
+                        state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, math.inf,
+                        qn, Eq, Eqn, Jth, R, tmp3, tmp, tmp2, gb, Hb,
+                    )  # fmt: skip
                     acc_nit += iters[0]
-                    if st6 == ST_OK and _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp):
-                        for i in range(n):
-                            z[i] = zsave[i]
-                        _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+                    if code == 1:
                         st = ST_OK
                         res = res6
                 if st != ST_OK and res_best <= accept_tol:
@@ -699,25 +711,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         if (step + 1) % record_every == 0 or step == n_steps - 1:
             row += 1
             _record(
-                rec,
-                row,
-                t,
-                state,
-                lnsum,
-                adh,
-                area_prev,
-                mode,
-                slip,
-                acc_nit,
-                acc_res,
-                acc_fb,
-                acc_sub,
-                acc_pen,
-                acc_fail,
-                z,
-                ecp_off,
-                acc_loose,
-            )
+                rec, row, t, state, lnsum, adh, area_prev, mode, slip,
+                acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off, acc_loose,
+            )  # fmt: skip
             acc_loose = 0
             acc_nit = 0
             acc_res = 0.0
