@@ -94,11 +94,13 @@ def lu_solve(A, piv, b, n):  # type: ignore[no-untyped-def]
             tmp = b[k]
             b[k] = b[p]
             b[p] = tmp
-    for i in range(n):
-        acc = b[i]
-        for j in range(i):
-            acc -= A[i, j] * b[j]
-        b[i] = acc
+    # forward substitution column by column: each b[i] receives the same subtractions in
+    # the same order as the row-wise dot product, without its chain of dependent adds
+    for j in range(n):
+        bj = b[j]
+        if bj != 0.0:
+            for i in range(j + 1, n):
+                b[i] -= A[i, j] * bj
     for i in range(n - 1, -1, -1):
         acc = b[i]
         for j in range(i + 1, n):
@@ -226,13 +228,17 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             status = ST_MAXIT
             break
         it += 1
+        # g = J^T F row by row (the same sums, in the same order, as column dot products;
+        # contiguous and free of dependent-add chains)
+        for j in range(n):
+            g[j] = 0.0
+        for k in range(n):
+            fk = F[k]
+            for j in range(n):
+                g[j] += J[k, j] * fk
         gnorm = 0.0
         for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += J[k, j] * F[k]
-            g[j] = acc
-            gnorm += acc * acc
+            gnorm += g[j] * g[j]
         gnorm = math.sqrt(gnorm)
         accepted = False
         th_new = theta
