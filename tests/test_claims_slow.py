@@ -133,3 +133,18 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     assert loose["loose_steps"] > 0
     strict = tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0, max_failed_steps=1))
     assert strict.attrs["failed_steps"] >= 1  # stopped there: too short to summarize
+
+
+def test_face_landing_within_a_short_step_is_solved() -> None:
+    """A run of the default study's dt/4 check (spiked ends on flat paper): a nearly flat
+    slanted face lands within one 1.25e-5 s step while the robot pivots about its edge.
+    Every earlier strategy stalls at a negative multiplier of the neighbouring face, at
+    each sub-step size; the snap guess (strategy 4, stepper._snap_flat) solves it. Before
+    that guess existed this run stopped with a failed step at t = 0.3696 s."""
+    kw = dict(
+        shape="spiked_ends", preset="paper", incline_deg=0.0, mu=0.3396147352969653, adhesion_C=4.040038650645969,
+        offset_deg=21.16888031600349, magnetization=13976.456622487862,
+    )  # fmt: skip
+    ds = tumblemc.simulate(duration_s=0.4, dt=1.25e-5, **kw)
+    assert int(ds.failed.sum()) == 0
+    assert float(ds.penetration.max()) < 1e-7

@@ -419,3 +419,42 @@ def test_kink_row_in_generalised_jacobian(kinds, seed, torque_end, theta):  # ty
         assert abs(ca - (1.0 - 1.0 / rho)) <= GJ_TOL
         if np.abs(gbo).max() > GJ_TOL:
             assert abs(cb - (1.0 - d / rho)) <= GJ_TOL * gscale
+
+
+@pytest.mark.parametrize("tilt", [1e-5, 1e-3, 3e-2])
+def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
+    """``stepper._snap_flat`` (strategy 4): from the cuboid's rest pose tilted by ``tilt``
+    about a horizontal axis, the angular velocity it returns lays the bottom face flat at
+    the end of the step up to the quaternion update's own error (angle 2 atan(h|w|/2)
+    instead of h|w|: third order); a face tilted beyond SNAP_MAX_TILT is refused."""
+    from tumblemc.kernels.geometry import quat_step, quat_to_rot
+    from tumblemc.kernels.stepper import SNAP_MAX_TILT, _snap_flat
+    from tumblemc.simulate import prepare, quat_to_matrix, rot_to_quat
+
+    spec = prepare(duration_s=0.01, incline_deg=20.0)
+    n = spec.prm[L.P_N : L.P_N + 3]
+    h = spec.h
+    rng = np.random.default_rng(3)
+    a = np.cross(n, rng.normal(size=3))
+    a /= np.linalg.norm(a)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+
+    def tilted(angle: float) -> np.ndarray:
+        rot = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+        return rot @ quat_to_matrix(spec.state0[3:7])
+
+    def bottom_tilt(R: np.ndarray) -> float:
+        normals = (R @ spec.geo.cdata[:, :3].T).T
+        nb = normals[np.argmax(-normals @ n)]
+        return float(math.atan2(np.linalg.norm(np.cross(nb, -n)), -nb @ n))
+
+    R0 = tilted(tilt)
+    assert bottom_tilt(R0) == pytest.approx(tilt, rel=1e-6)
+    w0 = np.zeros(3)
+    w = np.zeros(3)
+    assert _snap_flat(R0, spec.prm, spec.geo, h, w0, w)
+    qn, Eq, Eqn, Jth, R1 = np.zeros(4), np.zeros((4, 3)), np.zeros((4, 3)), np.zeros((3, 3)), np.zeros((3, 3))
+    quat_step(rot_to_quat(R0), w, h, qn, Eq, Eqn, Jth)
+    quat_to_rot(qn, R1)
+    assert bottom_tilt(R1) <= tilt**3 + 1e-14
+    assert not _snap_flat(tilted(1.5 * SNAP_MAX_TILT), spec.prm, spec.geo, h, w0, w)

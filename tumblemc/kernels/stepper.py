@@ -22,6 +22,7 @@ from .layout import (
     B_LR,
     B_LT,
     B_SIG,
+    C_PLANE,
     N_REC,
     N_SC,
     O_ACCEPT,
@@ -98,11 +99,16 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # face of guess 1 with those forces (a face slapping down while sliding); 5, 6, 7: guesses
 # 1, 2, 3 with the velocities started at zero instead of the pre-impact ones (a violent
 # impact after flight: the smoothed Newton from the incoming velocity can stall where it
-# converges from rest). Then plain, projected or smoothed Newton. The zero-velocity
+# converges from rest). Guess 4: the face of guess 3 with the angular velocity that lays
+# the most nearly flat face exactly flat at the end of the step (a face landing within the
+# step, where the warm start keeps the ECP at the edge it pivots about and Newton stalls
+# at a spurious point with a negative multiplier of the other face; found on short steps,
+# see _snap_flat). Then plain, projected or smoothed Newton. The zero-velocity and snap
 # attempts come after every other one, so steps that converge without them are unchanged.
-STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False)
-STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1)  # first mu
+STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)
+STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0)  # first mu
+SNAP_MAX_TILT = 0.05  # guess 4 only turns a face that is within this angle (rad) of flat
 N_ATTEMPTS = len(STRATEGY_GUESS)
 FLIGHT_BEFORE = 6  # a step whose explicit prediction penetrates tries free flight before this attempt
 EARLY_FLIGHT_TURN = 0.05  # ... when the body turns by at most this angle (rad) in the step
@@ -261,6 +267,52 @@ def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, H
     else:
         z[off + B_LT] = 0.0
         z[off + B_LO] = 0.0
+
+
+@jit
+def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
+    """Angular velocity for guess 4: ``w`` plus the rotation over ``h`` that turns the
+    half-space face whose outward normal (at the end pose ``R`` predicted with ``w``) is
+    closest to ``-n`` exactly onto ``-n``. Returns False (``out`` untouched) when no face
+    is within ``SNAP_MAX_TILT`` of flat."""
+    best = -2.0
+    ib = -1
+    for c in range(geo.ctype.shape[0]):
+        if geo.ctype[c] != C_PLANE:
+            continue
+        a = 0.0
+        for i in range(3):
+            ni = 0.0
+            for j in range(3):
+                ni += R[i, j] * geo.cdata[c, j]
+            a -= ni * prm[P_N + i]
+        if a > best:
+            best = a
+            ib = c
+    if ib < 0:
+        return False
+    # axis N_w x (-n), |.| = sin(tilt)
+    nw0 = 0.0
+    nw1 = 0.0
+    nw2 = 0.0
+    for j in range(3):
+        nw0 += R[0, j] * geo.cdata[ib, j]
+        nw1 += R[1, j] * geo.cdata[ib, j]
+        nw2 += R[2, j] * geo.cdata[ib, j]
+    n0 = -prm[P_N]
+    n1 = -prm[P_N + 1]
+    n2 = -prm[P_N + 2]
+    a0 = nw1 * n2 - nw2 * n1
+    a1 = nw2 * n0 - nw0 * n2
+    a2 = nw0 * n1 - nw1 * n0
+    sn = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    if best <= 0.0 or sn > math.sin(SNAP_MAX_TILT):
+        return False
+    c = math.asin(sn) / (h * sn) if sn > 0.0 else 0.0
+    out[0] = w[0] + c * a0
+    out[1] = w[1] + c * a1
+    out[2] = w[2] + c * a2
+    return True
 
 
 @jit
@@ -574,6 +626,15 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                                 z[i] = 0.0
                         quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
                         quat_to_rot(qn, R)
+                        if guess == 4:
+                            # the nearly flat face laid flat: pre-impact v, snapped w
+                            if not _snap_flat(R, prm, geo, hc, state[10:13], tmp):
+                                continue
+                            for i in range(3):
+                                z[i] = state[7 + i]
+                                z[3 + i] = tmp[i]
+                            quat_step(state[3:7], z[3:6], hc, qn, Eq, Eqn, Jth)
+                            quat_to_rot(qn, R)
                         for i in range(3):
                             tmp3[i] = state[i] + hc * state[7 + i]
                         off = 6
@@ -588,7 +649,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                                 tmp3,
                                 R,
                                 state[7:10],
-                                state[10:13],
+                                z[3:6] if guess == 4 else state[10:13],
                                 hc,
                                 sc,
                                 prm,
@@ -604,8 +665,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     smooth = STRATEGY_SMOOTH[attempt]
                     if smooth > 0.0:
                         opts_use = opts_smooth
-                    elif depth > 0:
-                        opts_use = opts
+                    elif depth > 0 or guess == 4:
+                        opts_use = opts  # the snap converges in 15-35 iterations
                     else:
                         opts_use = opts_fast
                     st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)
