@@ -135,16 +135,23 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     assert strict.attrs["failed_steps"] >= 1  # stopped there: too short to summarize
 
 
-def test_face_landing_within_a_short_step_is_solved() -> None:
-    """A run of the default study's dt/4 check (spiked ends on flat paper): a nearly flat
-    slanted face lands within one 1.25e-5 s step while the robot pivots about its edge.
-    Every earlier strategy stalls at a negative multiplier of the neighbouring face, at
-    each sub-step size; the snap guess (strategy 4, stepper._snap_flat) solves it. Before
-    that guess existed this run stopped with a failed step at t = 0.3696 s."""
-    kw = dict(
-        shape="spiked_ends", preset="paper", incline_deg=0.0, mu=0.3396147352969653, adhesion_C=4.040038650645969,
-        offset_deg=21.16888031600349, magnetization=13976.456622487862,
-    )  # fmt: skip
-    ds = tumblemc.simulate(duration_s=0.4, dt=1.25e-5, **kw)
+@pytest.mark.parametrize(
+    ("shape", "incline_deg", "mu", "adhesion_C", "offset_deg", "magnetization", "failed_at_s"),
+    [
+        ("spiked_ends", 0.0, 0.3396147352969653, 4.040038650645969, 21.16888031600349, 13976.456622487862, 0.3696),
+        ("curved", 5.0, 0.3275535120585208, 3.2149749412765156, 26.121855448209875, 13917.29879378714, 0.3825),
+    ],
+)
+def test_face_landing_within_a_short_step_is_solved(
+    shape: str, incline_deg: float, mu: float, adhesion_C: float, offset_deg: float, magnetization: float, failed_at_s: float
+) -> None:
+    """Runs of the default study's dt/4 check on paper: a nearly flat face lands within one
+    1.25e-5 s step while the robot pivots about its edge (for the curved robot, the face
+    next to its arc). Every earlier strategy stalls at a negative multiplier of the other
+    face of that edge, at each sub-step size; the snap guess (strategy 4,
+    stepper._snap_flat) solves it. Before that guess these runs stopped with a failed step
+    at ``failed_at_s``."""
+    kw = dict(mu=mu, adhesion_C=adhesion_C, offset_deg=offset_deg, magnetization=magnetization)
+    ds = tumblemc.simulate(shape=shape, preset="paper", incline_deg=incline_deg, duration_s=failed_at_s + 0.03, dt=1.25e-5, **kw)
     assert int(ds.failed.sum()) == 0
     assert float(ds.penetration.max()) < 1e-7

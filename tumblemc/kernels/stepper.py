@@ -99,11 +99,12 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # face of guess 1 with those forces (a face slapping down while sliding); 5, 6, 7: guesses
 # 1, 2, 3 with the velocities started at zero instead of the pre-impact ones (a violent
 # impact after flight: the smoothed Newton from the incoming velocity can stall where it
-# converges from rest). Guess 4: the face of guess 3 with the angular velocity that lays
-# the most nearly flat face exactly flat at the end of the step (a face landing within the
-# step, where the warm start keeps the ECP at the edge it pivots about and Newton stalls
-# at a spurious point with a negative multiplier of the other face; found on short steps,
-# see _snap_flat). Then plain, projected or smoothed Newton. The zero-velocity and snap
+# converges from rest). Guess 4: the angular velocity that lays the most nearly flat face
+# exactly flat at the end of the step, with the ECP at the lowest vertex or edge of the
+# pose predicted without it (the edge that lands) and the impact forces of guess 2: a face
+# landing within the step, where the warm start keeps the ECP at the edge the robot pivots
+# about and Newton stalls at a spurious point with a negative multiplier of the other face
+# (found on short steps; see _snap_flat). Then plain, projected or smoothed Newton. The zero-velocity and snap
 # attempts come after every other one, so steps that converge without them are unchanged.
 STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4)
 STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)
@@ -627,20 +628,20 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
                         quat_to_rot(qn, R)
                         if guess == 4:
-                            # the nearly flat face laid flat: pre-impact v, snapped w
+                            # the nearly flat face laid flat: pre-impact v, snapped w; the
+                            # ECP at the lowest vertex or edge of the pose predicted without
+                            # the snap, the edge that lands
                             if not _snap_flat(R, prm, geo, hc, state[10:13], tmp):
                                 continue
                             for i in range(3):
                                 z[i] = state[7 + i]
                                 z[3 + i] = tmp[i]
-                            quat_step(state[3:7], z[3:6], hc, qn, Eq, Eqn, Jth)
-                            quat_to_rot(qn, R)
                         for i in range(3):
                             tmp3[i] = state[i] + hc * state[7 + i]
                         off = 6
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            tolg = VERTEX_TOL if guess == 2 else (RESTART_TOL if guess == 1 else FACE_TOL)
+                            tolg = VERTEX_TOL if guess == 2 or guess == 4 else (RESTART_TOL if guess == 1 else FACE_TOL)
                             _landing_guess(
                                 z,
                                 off,
