@@ -104,10 +104,11 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # pose predicted without it (the edge that lands) and the impact forces of guess 2: a face
 # landing within the step, where the warm start keeps the ECP at the edge the robot pivots
 # about and Newton stalls at a spurious point with a negative multiplier of the other face
-# (found on short steps; see _snap_flat). Then plain, projected or smoothed Newton. The zero-velocity and snap
-# attempts come after every other one, so steps that converge without them are unchanged.
+# (found on short steps; see _snap_flat). Then plain, projected or smoothed Newton. The
+# zero-velocity and snap attempts come after every other one, so steps that converge
+# without them are unchanged.
 STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)  # fmt: skip
 STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0)  # first mu
 SNAP_MAX_TILT = 0.05  # guess 4 only turns a face that is within this angle (rad) of flat
 N_ATTEMPTS = len(STRATEGY_GUESS)
@@ -667,7 +668,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     if smooth > 0.0:
                         opts_use = opts_smooth
                     elif depth > 0 or guess == 4:
-                        opts_use = opts  # the snap converges in 15-35 iterations
+                        opts_use = opts  # the snap can need more than FAST_MAXIT iterations
                     else:
                         opts_use = opts_fast
                     st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)
