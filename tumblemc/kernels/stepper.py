@@ -278,29 +278,27 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     closest to ``-n`` exactly onto ``-n``. Returns False (``out`` untouched) when no face
     is within ``SNAP_MAX_TILT`` of flat."""
     best = -2.0
-    ib = -1
-    for c in range(geo.ctype.shape[0]):
-        if geo.ctype[c] != C_PLANE:
-            continue
-        a = 0.0
-        for i in range(3):
-            ni = 0.0
-            for j in range(3):
-                ni += R[i, j] * geo.cdata[c, j]
-            a -= ni * prm[P_N + i]
-        if a > best:
-            best = a
-            ib = c
-    if ib < 0:
-        return False
-    # axis N_w x (-n), |.| = sin(tilt)
     nw0 = 0.0
     nw1 = 0.0
     nw2 = 0.0
-    for j in range(3):
-        nw0 += R[0, j] * geo.cdata[ib, j]
-        nw1 += R[1, j] * geo.cdata[ib, j]
-        nw2 += R[2, j] * geo.cdata[ib, j]
+    for c in range(geo.ctype.shape[0]):
+        if geo.ctype[c] != C_PLANE:
+            continue
+        # outward normal of face c in the world, and its alignment with -n
+        m0 = 0.0
+        m1 = 0.0
+        m2 = 0.0
+        for j in range(3):
+            m0 += R[0, j] * geo.cdata[c, j]
+            m1 += R[1, j] * geo.cdata[c, j]
+            m2 += R[2, j] * geo.cdata[c, j]
+        a = -m0 * prm[P_N] - m1 * prm[P_N + 1] - m2 * prm[P_N + 2]
+        if a > best:
+            best = a
+            nw0 = m0
+            nw1 = m1
+            nw2 = m2
+    # axis N_w x (-n), |.| = sin(tilt)
     n0 = -prm[P_N]
     n1 = -prm[P_N + 1]
     n2 = -prm[P_N + 2]
@@ -462,8 +460,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     prediction hid a lift-off (it penetrates, yet the robot leaves the plane), the
     free-flight solution is tried again before the costly smoothing strategies
     (``FLIGHT_BEFORE``) if the body turns by at most ``EARLY_FLIGHT_TURN`` in the step,
-    and after every strategy otherwise. A step whose solve fails is retried as halved sub-steps down to
-    ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
+    and after every strategy otherwise. A step whose solve fails is retried as halved
+    sub-steps down to ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
     as failed. Before any halving, an attempt whose residual is within ``opts[O_ACCEPT]``
     is kept instead (a loose step; a step counts as loose at most once, and not when it
     also failed). Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
