@@ -458,3 +458,33 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     quat_to_rot(qn, R1)
     assert bottom_tilt(R1) <= tilt**3 + 1e-14
     assert not _snap_flat(tilted(1.5 * SNAP_MAX_TILT), spec.prm, spec.geo, h, w0, w)
+
+
+# ---- the sparse LU of the Newton solver -------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
+    """``lu_factor``/``lu_solve`` (rows left in place, nonzero lists) solve sparse systems
+    like numpy, pivot ties included, and report exactly singular ones."""
+    from tumblemc.kernels.newton import lu_factor, lu_solve
+
+    rng = np.random.default_rng(seed)
+    n = 6 + seed % 23
+    A = np.where(rng.random((n, n)) < 0.3, rng.standard_normal((n, n)), 0.0)
+    A[np.arange(n), rng.permutation(n)] += rng.choice([-2.0, -1.0, 1.0, 2.0], n)  # nonsingular, many ties
+    if seed % 4 == 3:
+        A[:, seed % n] = np.round(A[:, seed % n])  # tied pivot candidates
+    ws = make_workspace(n)
+    M = A.copy()
+    b = rng.standard_normal(n)
+    x = b.copy()
+    cond = np.linalg.cond(A)
+    assert cond < 1e10  # the construction keeps these systems well posed
+    assert lu_factor(M, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt)
+    assert sorted(ws.piv) == list(range(n))
+    lu_solve(M, ws.piv, x, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, ws.y)
+    np.testing.assert_allclose(A @ x, b, rtol=0, atol=1e-13 * cond * (1 + np.abs(b).max()))
+    S = A.copy()
+    S[:, seed % n] = 0.0  # a zero column: singular
+    assert not lu_factor(S, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt)

@@ -22,30 +22,37 @@ from .residual import residual
 
 Workspace = namedtuple(
     "Workspace",
-    ["F", "J", "A", "d", "zt", "Ft", "g", "fbb", "isfb", "piv", "v3", "m33", "q4", "e43", "Jt", "Ft_isfb", "nzc"],
+    ["F", "J", "A", "d", "zt", "Ft", "g", "fbb", "isfb", "piv", "v3", "m33", "q4", "e43", "Jt", "Ft_isfb", "unz", "ucnt", "lnz", "lcnt", "y"],
 )
 
 
 def make_workspace(n: int) -> Workspace:
     """Allocate the solver's arrays for ``n`` unknowns (done once per run)."""
     f = np.zeros
+    i = np.int64
     return Workspace(
         f(n), f((n, n)), f((n, n)), f(n), f(n), f(n), f(n), f(n),
-        np.zeros(n, np.int64), np.zeros(n, np.int64),
-        f((16, 3)), f((8, 3, 3)), f((2, 4)), f((2, 4, 3)), f((n, n)), np.zeros(n, np.int64), np.zeros(n, np.int64),
+        np.zeros(n, i), np.zeros(n, i),
+        f((16, 3)), f((8, 3, 3)), f((2, 4)), f((2, 4, 3)), f((n, n)), np.zeros(n, i),
+        np.zeros((n, n), i), np.zeros(n, i), np.zeros((n, n), i), np.zeros(n, i), f(n),
     )  # fmt: skip
 
 
 @jit
-def lu_factor(A, piv, n, nzc):  # type: ignore[no-untyped-def]
+def lu_factor(A, order, n, unz, ucnt, lnz, lcnt):  # type: ignore[no-untyped-def]
     """In-place LU with partial pivoting of ``A[:n, :n]``. False if numerically singular.
 
-    The Jacobian is sparse (a third of it is nonzero), so each elimination step updates
-    only the nonzero columns of the pivot row (``nzc``: int64[n] workspace); the result
-    is the same as the dense algorithm's.
+    Rows stay where they are: ``order[k]`` is the row chosen as the k-th pivot (the same
+    choice, ties included, as swapping rows). The Jacobian is sparse (a third of it is
+    nonzero, and its factors about 30%), so each elimination step visits only the
+    nonzero columns of the pivot row and the rows with a nonzero in the pivot column, and
+    keeps both lists for :func:`lu_solve`: ``unz[k, :ucnt[k]]`` the columns right of the
+    diagonal in row ``order[k]`` of U, ``lnz[k, :lcnt[k]]`` the rows holding a multiplier
+    of column k (int64 workspaces). The factors are those of the dense algorithm.
     """
     amax = 0.0
     for i in range(n):
+        order[i] = i
         for j in range(n):
             v = abs(A[i, j])
             if v > amax:
@@ -54,63 +61,80 @@ def lu_factor(A, piv, n, nzc):  # type: ignore[no-untyped-def]
         return False
     tiny = 1e-13 * amax
     for k in range(n):
+        # one pass over the rows not yet pivoted: the nonzeros of column k (by position)
+        # and the first largest of them
         p = k
-        best = abs(A[k, k])
-        for i in range(k + 1, n):
-            v = abs(A[i, k])
-            if v > best:
-                best = v
-                p = i
+        best = abs(A[order[k], k])
+        nl = 0
+        for i in range(k, n):
+            a = A[order[i], k]
+            if a != 0.0:
+                lnz[k, nl] = i
+                nl += 1
+                v = abs(a)
+                if v > best:
+                    best = v
+                    p = i
         if not best > tiny:
             return False
-        piv[k] = p
+        rk = order[p]
         if p != k:
-            for j in range(n):
-                tmp = A[k, j]
-                A[k, j] = A[p, j]
-                A[p, j] = tmp
+            order[p] = order[k]
+            order[k] = rk
         nnz = 0
         for j in range(k + 1, n):
-            if A[k, j] != 0.0:
-                nzc[nnz] = j
+            if A[rk, j] != 0.0:
+                unz[k, nnz] = j
                 nnz += 1
-        inv = 1.0 / A[k, k]
-        for i in range(k + 1, n):
-            if A[i, k] != 0.0:
-                f = A[i, k] * inv
-                A[i, k] = f
-                for q in range(nnz):
-                    j = nzc[q]
-                    A[i, j] -= f * A[k, j]
+        ucnt[k] = nnz
+        inv = 1.0 / A[rk, k]
+        m = 0
+        for q in range(nl):
+            i = lnz[k, q]
+            if i == p:
+                continue
+            if i == k:
+                i = p  # the row at position k moved to position p
+            ri = order[i]
+            lnz[k, m] = ri
+            m += 1
+            f = A[ri, k] * inv
+            A[ri, k] = f
+            for qq in range(nnz):
+                j = unz[k, qq]
+                A[ri, j] -= f * A[rk, j]
+        lcnt[k] = m
     return True
 
 
 @jit
-def lu_solve(A, piv, b, n):  # type: ignore[no-untyped-def]
-    """Solve in place with the factors of :func:`lu_factor`."""
+def lu_solve(A, order, b, n, unz, ucnt, lnz, lcnt, y):  # type: ignore[no-untyped-def]
+    """Solve in place with the factors of :func:`lu_factor` (``y``: float64[n] workspace).
+
+    The same subtractions in the same order as the dense substitutions, without the
+    products with the zeros of the factors.
+    """
+    # forward substitution column by column, in the original row numbering
     for k in range(n):
-        p = piv[k]
-        if p != k:
-            tmp = b[k]
-            b[k] = b[p]
-            b[p] = tmp
-    # forward substitution column by column: each b[i] receives the same subtractions in
-    # the same order as the row-wise dot product, without its chain of dependent adds
-    for j in range(n):
-        bj = b[j]
-        if bj != 0.0:
-            for i in range(j + 1, n):
-                b[i] -= A[i, j] * bj
+        bk = b[order[k]]
+        y[k] = bk
+        if bk != 0.0:
+            for q in range(lcnt[k]):
+                r = lnz[k, q]
+                b[r] -= A[r, k] * bk
     for i in range(n - 1, -1, -1):
-        acc = b[i]
-        for j in range(i + 1, n):
-            acc -= A[i, j] * b[j]
-        b[i] = acc / A[i, i]
+        ri = order[i]
+        acc = y[i]
+        for q in range(ucnt[i]):
+            j = unz[i, q]
+            acc -= A[ri, j] * b[j]
+        b[i] = acc / A[ri, i]
 
 
 @jit
-def _lm_direction(J, F, g, A, piv, d, n, nu, nzc):  # type: ignore[no-untyped-def]
+def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
     """d = -(J^T J + nu I)^-1 J^T F. False if even that fails."""
+    A = ws.A
     for i in range(n):
         for j in range(i, n):
             acc = 0.0
@@ -119,11 +143,11 @@ def _lm_direction(J, F, g, A, piv, d, n, nu, nzc):  # type: ignore[no-untyped-de
             A[i, j] = acc
             A[j, i] = acc
         A[i, i] += nu
-    if not lu_factor(A, piv, n, nzc):
+    if not lu_factor(A, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt):
         return False
     for i in range(n):
         d[i] = -g[i]
-    lu_solve(A, piv, d, n)
+    lu_solve(A, ws.piv, d, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, ws.y)
     return True
 
 
@@ -140,24 +164,37 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n,
     Yamashita & Fukushima 2004). Projection slows convergence at sticking contacts
     (sigma = 0), so the stepper tries it only after the plain iteration failed.
     """
+    # the workspace arrays taken out of the tuple once: each access through ``ws`` costs
+    # an atomic reference-count increment and decrement
+    isfb = ws.isfb
+    zt = ws.zt
+    g = ws.g
+    Ft = ws.Ft
+    Jt = ws.Jt
+    Ft_isfb = ws.Ft_isfb
+    fbb = ws.fbb
+    v3 = ws.v3
+    m33 = ws.m33
+    q4 = ws.q4
+    e43 = ws.e43
     t = 1.0
     c = opts[O_ARMIJO]
     while t >= opts[O_MINSTEP]:
         projected = False
         for i in range(n):
             v = z[i] + t * d[i]
-            if project and ws.isfb[i] != 0 and v < 0.0:
+            if project and isfb[i] != 0 and v < 0.0:
                 v = 0.0
                 projected = True
-            ws.zt[i] = v
+            zt[i] = v
         if projected:
             dec = 0.0
             for i in range(n):
-                dec += ws.g[i] * (ws.zt[i] - z[i])
+                dec += g[i] * (zt[i] - z[i])
             target = theta + c * dec if dec < 0.0 else theta * (1.0 - c * t)
         else:
             target = theta + c * t * slope
-        th = residual(ws.zt, sc, prm, ctype, cdata, pstart, ws.Ft, ws.Jt, False, ws.Ft_isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
+        th = residual(zt, sc, prm, ctype, cdata, pstart, Ft, Jt, False, Ft_isfb, fbb, v3, m33, q4, e43, mu_s)
         if th <= target:
             return True, th
         t *= 0.5
@@ -196,14 +233,30 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
         ``||Phi||_inf`` at the returned ``z``.
     """
     n = z.shape[0]
+    # the workspace arrays taken out of the tuple once (see _line_search)
     F = ws.F
     J = ws.J
     g = ws.g
     d = ws.d
+    A = ws.A
+    piv = ws.piv
+    unz = ws.unz
+    ucnt = ws.ucnt
+    lnz = ws.lnz
+    lcnt = ws.lcnt
+    y = ws.y
+    isfb = ws.isfb
+    fbb = ws.fbb
+    v3 = ws.v3
+    m33 = ws.m33
+    q4 = ws.q4
+    e43 = ws.e43
+    zt = ws.zt
+    Ft = ws.Ft
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
-    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
+    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, v3, m33, q4, e43, mu_s)
     fallbacks = 0
     it = 0
     status = ST_MAXIT
@@ -219,7 +272,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             break
         if mu_s > 0.0 and fnorm <= max(tol, 0.1 * mu_s):
             mu_s = 0.1 * mu_s if 0.1 * mu_s > 1e-3 * tol else 0.0
-            theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
+            theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, v3, m33, q4, e43, mu_s)
             continue
         if fnorm <= tol and mu_s == 0.0:
             status = ST_OK
@@ -245,11 +298,11 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
         # 1. semismooth Newton
         for i in range(n):
             for j in range(n):
-                ws.A[i, j] = J[i, j]
-        if lu_factor(ws.A, ws.piv, n, ws.nzc):
+                A[i, j] = J[i, j]
+        if lu_factor(A, piv, n, unz, ucnt, lnz, lcnt):
             for i in range(n):
                 d[i] = -F[i]
-            lu_solve(ws.A, ws.piv, d, n)
+            lu_solve(A, piv, d, n, unz, ucnt, lnz, lcnt, y)
             slope = 0.0
             dn = 0.0
             for i in range(n):
@@ -261,7 +314,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
         if not accepted:
             fallbacks += 1
             nu = math.sqrt(2.0 * theta)
-            if _lm_direction(J, F, g, ws.A, ws.piv, d, n, nu, ws.nzc):
+            if _lm_direction(J, F, g, d, n, nu, ws):
                 slope = 0.0
                 for i in range(n):
                     slope += g[i] * d[i]
@@ -277,18 +330,18 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             break
         fnew = 0.0
         for i in range(n):
-            z[i] = ws.zt[i]
-            v = abs(ws.Ft[i])
+            z[i] = zt[i]
+            v = abs(Ft[i])
             if v > fnew:
                 fnew = v
         if mu_s == 0.0 and fnew <= tol:
             # converged at the accepted point: its residual is known, skip the Jacobian
             for i in range(n):
-                F[i] = ws.Ft[i]
+                F[i] = Ft[i]
             fnorm = fnew
             status = ST_OK
             break
-        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43, mu_s)
+        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, v3, m33, q4, e43, mu_s)
     out[0] = it
     out[1] = fallbacks
     return status, fnorm
