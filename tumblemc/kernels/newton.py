@@ -22,7 +22,29 @@ from .residual import residual
 
 Workspace = namedtuple(
     "Workspace",
-    ["F", "J", "A", "d", "zt", "Ft", "g", "fbb", "isfb", "piv", "v3", "m33", "q4", "e43", "Jt", "Ft_isfb", "unz", "ucnt", "lnz", "lcnt", "y"],
+    [
+        "F",
+        "J",
+        "A",
+        "d",
+        "zt",
+        "Ft",
+        "g",
+        "fbb",
+        "isfb",
+        "piv",
+        "v3",
+        "m33",
+        "q4",
+        "e43",
+        "Jt",
+        "Ft_isfb",
+        "unz",
+        "ucnt",
+        "lnz",
+        "lcnt",
+        "y",
+    ],
 )
 
 
