@@ -160,7 +160,7 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
 def kernel(z, sc, prm, ctype, cdata, pstart, want_J=True, mu_s=None):  # type: ignore[no-untyped-def]
     """Run the kernel on fresh workspaces; returns (F, J, theta). ``mu_s=None``: default FB."""
     ws = make_workspace(z.size)
-    a = (z, sc, prm, ctype, cdata, pstart, ws.F, ws.J, want_J, ws.isfb, ws.fbb, ws.v3, ws.m33, ws.q4, ws.e43)
+    a = (z, sc, prm, ctype, cdata, pstart, ws.F, ws.J, want_J, ws.isfb, ws.fbb, ws.rs)
     theta = residual(*a) if mu_s is None else residual(*a, mu_s)
     return ws.F.copy(), ws.J.copy(), theta
 
@@ -488,3 +488,39 @@ def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
     S = A.copy()
     S[:, seed % n] = 0.0  # a zero column: singular
     assert not lu_factor(S, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_residual_scratch_helpers_match_geometry(seed: int) -> None:
+    """The residual's offset-addressed copies of the geometry kernels (no array views, see
+    ``residual.RS_*``) give bit-identical results to :mod:`tumblemc.kernels.geometry`."""
+    from tumblemc.kernels import geometry as G
+    from tumblemc.kernels import residual as Rk
+
+    rng = np.random.default_rng(seed)
+    s = np.zeros(Rk.N_RS)
+    sc = np.zeros(L.N_SC)
+    q = rng.standard_normal(4)
+    sc[L.S_Q : L.S_Q + 4] = q / np.linalg.norm(q)
+    z = rng.standard_normal(30)
+    h = 10.0 ** rng.uniform(-3, 0)
+    Rk._quat_step(sc, z, h, s)
+    Rk._quat_to_rot(s)
+    qn, Jth, R = np.zeros(4), np.zeros((3, 3)), np.zeros((3, 3))
+    G.quat_step(sc[L.S_Q : L.S_Q + 4], z[3:6], h, qn, np.zeros((4, 3)), np.zeros((4, 3)), Jth)
+    G.quat_to_rot(qn, R)
+    assert np.array_equal(s[Rk.RS_QN : Rk.RS_QN + 4], qn)
+    assert np.array_equal(s[Rk.RS_JTH : Rk.RS_JTH + 9], Jth.ravel())
+    assert np.array_equal(s[Rk.RS_R : Rk.RS_R + 9], R.ravel())
+    ctype = np.array([L.C_PLANE, L.C_CYL_X], np.int64)
+    cdata = np.array([[*(rng.standard_normal(3)), rng.standard_normal()], [rng.standard_normal(), rng.standard_normal(), 2.0, 0.0]])
+    for c in range(2):
+        y = rng.standard_normal(3)
+        s[Rk.RS_Y : Rk.RS_Y + 3] = y
+        s[Rk.RS_HB : Rk.RS_HB + 9] = np.nan  # must be overwritten
+        f1 = Rk._constraint(ctype[c], cdata, c, s)
+        g, H = np.zeros(3), np.zeros((3, 3))
+        f2 = G.constraint_eval(ctype[c], cdata[c], y, g, H)
+        assert f1 == f2
+        assert np.array_equal(s[Rk.RS_GB : Rk.RS_GB + 3], g)
+        assert np.array_equal(s[Rk.RS_HB : Rk.RS_HB + 9], H.ravel())

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._jit import jit
 from .layout import O_ARMIJO, O_MAXIT, O_MINSTEP, O_TOL, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
-from .residual import residual
+from .residual import N_RS, residual
 
 Workspace = namedtuple(
     "Workspace",
@@ -33,10 +33,7 @@ Workspace = namedtuple(
         "fbb",
         "isfb",
         "piv",
-        "v3",
-        "m33",
-        "q4",
-        "e43",
+        "rs",
         "Jt",
         "Ft_isfb",
         "unz",
@@ -55,7 +52,7 @@ def make_workspace(n: int) -> Workspace:
     return Workspace(
         f(n), f((n, n)), f((n, n)), f(n), f(n), f(n), f(n), f(n),
         np.zeros(n, i), np.zeros(n, i),
-        f((16, 3)), f((8, 3, 3)), f((2, 4)), f((2, 4, 3)), f((n, n)), np.zeros(n, i),
+        f(N_RS), f((n, n)), np.zeros(n, i),
         np.zeros((n, n), i), np.zeros(n, i), np.zeros((n, n), i), np.zeros(n, i), f(n),
     )  # fmt: skip
 
@@ -195,10 +192,7 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n,
     Jt = ws.Jt
     Ft_isfb = ws.Ft_isfb
     fbb = ws.fbb
-    v3 = ws.v3
-    m33 = ws.m33
-    q4 = ws.q4
-    e43 = ws.e43
+    rs = ws.rs
     t = 1.0
     c = opts[O_ARMIJO]
     while t >= opts[O_MINSTEP]:
@@ -216,7 +210,7 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n,
             target = theta + c * dec if dec < 0.0 else theta * (1.0 - c * t)
         else:
             target = theta + c * t * slope
-        th = residual(zt, sc, prm, ctype, cdata, pstart, Ft, Jt, False, Ft_isfb, fbb, v3, m33, q4, e43, mu_s)
+        th = residual(zt, sc, prm, ctype, cdata, pstart, Ft, Jt, False, Ft_isfb, fbb, rs, mu_s)
         if th <= target:
             return True, th
         t *= 0.5
@@ -269,16 +263,13 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
     y = ws.y
     isfb = ws.isfb
     fbb = ws.fbb
-    v3 = ws.v3
-    m33 = ws.m33
-    q4 = ws.q4
-    e43 = ws.e43
+    rs = ws.rs
     zt = ws.zt
     Ft = ws.Ft
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
-    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, v3, m33, q4, e43, mu_s)
+    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, rs, mu_s)
     fallbacks = 0
     it = 0
     status = ST_MAXIT
@@ -294,7 +285,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             break
         if mu_s > 0.0 and fnorm <= max(tol, 0.1 * mu_s):
             mu_s = 0.1 * mu_s if 0.1 * mu_s > 1e-3 * tol else 0.0
-            theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, v3, m33, q4, e43, mu_s)
+            theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, rs, mu_s)
             continue
         if fnorm <= tol and mu_s == 0.0:
             status = ST_OK
@@ -363,7 +354,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             fnorm = fnew
             status = ST_OK
             break
-        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, v3, m33, q4, e43, mu_s)
+        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, rs, mu_s)
     out[0] = it
     out[1] = fallbacks
     return status, fnorm

@@ -36,7 +36,6 @@ from __future__ import annotations
 import math
 
 from ._jit import jit
-from .geometry import constraint_eval, cross, quat_step, quat_to_rot, skew
 from .layout import (
     B_A1,
     B_A2,
@@ -46,6 +45,8 @@ from .layout import (
     B_LR,
     B_LT,
     B_SIG,
+    C_CYL_X,
+    C_PLANE,
     P_EB,
     P_EO,
     P_ER,
@@ -100,32 +101,180 @@ def n_unknowns(pstart) -> int:  # type: ignore[no-untyped-def]
     return 6 + B_FIXED * k + int(pstart[-1] - pstart[0])
 
 
+# ---- the residual's scratch: one flat float64[N_RS] array ----------------------------
+# Views of a scratch array (``m33[0]``, ``z[0:3]``, ...) each cost Numba an atomic
+# reference-count increment and decrement, about a tenth of a time step's cost, so the
+# residual addresses one flat scratch array (and z, sc, prm) by offsets instead.
+# 3x3 matrices row-major (9 entries), vectors 3, the quaternion 4, the E matrices 12.
+RS_R = 0  # R+ (rotation at the end of the step)
+RS_JTH = 9  # d(theta)/d(w+)
+RS_IP = 18  # I+ (world inertia)
+RS_M1 = 27  # 3x3 temporaries
+RS_M2 = 36
+RS_M3 = 45
+RS_HL = 54  # sum_i l_i R Hb_i R^T
+RS_HB = 63  # Hessian of one constraint (body frame)
+RS_XP = 72  # x+
+RS_R1 = 75  # r = a1 - x+
+RS_Y = 78  # r in body coordinates
+RS_GB = 81  # gradient of one constraint (body frame)
+RS_NI = 84  # its world normal
+RS_FC = 87  # contact force
+RS_V1 = 90  # vector temporaries
+RS_V2 = 93
+RS_DL = 96  # w+ - w
+RS_IPD = 99  # I+ (w+ - w)
+RS_IPW = 102  # I+ w
+RS_VC = 105  # velocity of the ECP
+RS_NC = 108  # normal-cone row
+RS_MW = 111  # R+ e_b
+RS_QN = 114  # Q+ (4)
+RS_E1 = 118  # E(Q) (4x3)
+RS_E2 = 130  # E(Q+) (4x3)
+N_RS = 142
+
+
 @jit
-def _mat3(a, b, out):  # type: ignore[no-untyped-def]
+def _cr(a, ia, b, ib, o, io):  # type: ignore[no-untyped-def]
+    """o[io:io+3] = a[ia:ia+3] x b[ib:ib+3] (1-D arrays and offsets)."""
+    o[io] = a[ia + 1] * b[ib + 2] - a[ia + 2] * b[ib + 1]
+    o[io + 1] = a[ia + 2] * b[ib] - a[ia] * b[ib + 2]
+    o[io + 2] = a[ia] * b[ib + 1] - a[ia + 1] * b[ib]
+
+
+@jit
+def _sk(a, ia, o, io):  # type: ignore[no-untyped-def]
+    """o[io:io+9] (3x3 row-major) = [a[ia:ia+3]]x."""
+    o[io] = 0.0
+    o[io + 1] = -a[ia + 2]
+    o[io + 2] = a[ia + 1]
+    o[io + 3] = a[ia + 2]
+    o[io + 4] = 0.0
+    o[io + 5] = -a[ia]
+    o[io + 6] = -a[ia + 1]
+    o[io + 7] = a[ia]
+    o[io + 8] = 0.0
+
+
+@jit
+def _mm(s, ia, ib, io):  # type: ignore[no-untyped-def]
+    """s[io] = s[ia] @ s[ib] for 3x3 row-major blocks of the scratch."""
     for i in range(3):
         for j in range(3):
             acc = 0.0
             for k in range(3):
-                acc += a[i, k] * b[k, j]
-            out[i, j] = acc
+                acc += s[ia + 3 * i + k] * s[ib + 3 * k + j]
+            s[io + 3 * i + j] = acc
 
 
 @jit
-def _friction_jac(J, row, ilam, isg, iln, ia1, cf, dln, dsig, dlam, axis, wnew, r, h, t1, t2):  # type: ignore[no-untyped-def]
-    """Jacobian of ``cf/ln * ln * (axis . (v+ + w+ x r)) + lam/e * sigma`` (one tangent row)."""
-    cross(axis, wnew, t1)  # d v_axis / d a1
-    cross(r, axis, t2)  # d v_axis / d w+
+def _quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
+    """:func:`tumblemc.kernels.geometry.quat_E` into o[io:io+12] (4x3 row-major)."""
+    w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
+    o[io] = -x
+    o[io + 1] = -y
+    o[io + 2] = -z
+    o[io + 3] = w
+    o[io + 4] = z
+    o[io + 5] = -y
+    o[io + 6] = -z
+    o[io + 7] = w
+    o[io + 8] = x
+    o[io + 9] = y
+    o[io + 10] = -x
+    o[io + 11] = w
+
+
+@jit
+def _quat_step(sc, z, h, s):  # type: ignore[no-untyped-def]
+    """:func:`tumblemc.kernels.geometry.quat_step` of ``sc``'s Q and ``w+ = z[3:6]`` into
+    the scratch (Q+ at RS_QN, d(theta)/d(w+) at RS_JTH); the same arithmetic."""
+    _quat_E(sc, S_Q, s, RS_E1)
+    ss = 0.0
+    for k in range(4):
+        acc = sc[S_Q + k]
+        for j in range(3):
+            acc += 0.5 * h * s[RS_E1 + 3 * k + j] * z[3 + j]
+        s[RS_QN + k] = acc
+        ss += acc * acc
+    nrm = math.sqrt(ss)
+    for k in range(4):
+        s[RS_QN + k] /= nrm
+    _quat_E(s, RS_QN, s, RS_E2)
+    c = h / nrm
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for k in range(4):
+                acc += s[RS_E2 + 3 * k + i] * s[RS_E1 + 3 * k + j]
+            s[RS_JTH + 3 * i + j] = c * acc
+
+
+@jit
+def _quat_to_rot(s):  # type: ignore[no-untyped-def]
+    """:func:`tumblemc.kernels.geometry.quat_to_rot` of Q+ (RS_QN) into RS_R."""
+    w, x, y, z = s[RS_QN], s[RS_QN + 1], s[RS_QN + 2], s[RS_QN + 3]
+    s[RS_R] = w * w + x * x - y * y - z * z
+    s[RS_R + 1] = 2.0 * (x * y - w * z)
+    s[RS_R + 2] = 2.0 * (x * z + w * y)
+    s[RS_R + 3] = 2.0 * (x * y + w * z)
+    s[RS_R + 4] = w * w - x * x + y * y - z * z
+    s[RS_R + 5] = 2.0 * (y * z - w * x)
+    s[RS_R + 6] = 2.0 * (x * z - w * y)
+    s[RS_R + 7] = 2.0 * (y * z + w * x)
+    s[RS_R + 8] = w * w - x * x - y * y + z * z
+
+
+@jit
+def _constraint(ct, cdata, c, s):  # type: ignore[no-untyped-def]
+    """:func:`tumblemc.kernels.geometry.constraint_eval` of constraint ``c`` at y (RS_Y):
+    gradient into RS_GB, Hessian into RS_HB; the same arithmetic."""
+    for i in range(9):
+        s[RS_HB + i] = 0.0
+    if ct == C_PLANE:
+        s[RS_GB] = cdata[c, 0]
+        s[RS_GB + 1] = cdata[c, 1]
+        s[RS_GB + 2] = cdata[c, 2]
+        return cdata[c, 0] * s[RS_Y] + cdata[c, 1] * s[RS_Y + 1] + cdata[c, 2] * s[RS_Y + 2] - cdata[c, 3]
+    elif ct == C_CYL_X:
+        d1 = s[RS_Y + 1] - cdata[c, 0]
+        d2 = s[RS_Y + 2] - cdata[c, 1]
+        rho = math.sqrt(d1 * d1 + d2 * d2)
+        if rho < 1e-300:
+            rho = 1e-300
+        g1 = d1 / rho
+        g2 = d2 / rho
+        s[RS_GB] = 0.0
+        s[RS_GB + 1] = g1
+        s[RS_GB + 2] = g2
+        s[RS_HB + 4] = (1.0 - g1 * g1) / rho
+        s[RS_HB + 5] = -g1 * g2 / rho
+        s[RS_HB + 7] = s[RS_HB + 5]
+        s[RS_HB + 8] = (1.0 - g2 * g2) / rho
+        return rho - cdata[c, 2]
+    s[RS_GB] = math.nan
+    s[RS_GB + 1] = math.nan
+    s[RS_GB + 2] = math.nan
+    return math.nan
+
+
+@jit
+def _friction_jac(J, row, ilam, isg, iln, ia1, cf, dln, dsig, dlam, prm, iax, z, h, s):  # type: ignore[no-untyped-def]
+    """Jacobian of ``cf/ln * ln * (axis . (v+ + w+ x r)) + lam/e * sigma`` (one tangent
+    row; ``axis = prm[iax:iax+3]``, ``w+ = z[3:6]``, ``r`` at RS_R1)."""
+    _cr(prm, iax, z, 3, s, RS_V1)  # d v_axis / d a1
+    _cr(s, RS_R1, prm, iax, s, RS_V2)  # d v_axis / d w+
     for j in range(3):
-        J[row, j] = cf * (axis[j] - h * t1[j])
-        J[row, 3 + j] = cf * t2[j]
-        J[row, ia1 + j] = cf * t1[j]
+        J[row, j] = cf * (prm[iax + j] - h * s[RS_V1 + j])
+        J[row, 3 + j] = cf * s[RS_V2 + j]
+        J[row, ia1 + j] = cf * s[RS_V1 + j]
     J[row, iln] = dln
     J[row, isg] = dsig
     J[row, ilam] = dlam
 
 
 @jit
-def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33, q4, e43, mu_s=0.0):  # type: ignore[no-untyped-def]
+def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=0.0):  # type: ignore[no-untyped-def]
     """Evaluate ``Phi(z)`` into ``F`` and, if ``want_J``, its Jacobian into ``J``.
 
     Parameters
@@ -144,8 +293,8 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
         Receives the Jacobian when ``want_J``.
     isfb, fbb : int64[n], float64[n]
         Workspaces: FB-row flags and the raw ``b`` of each FB pair.
-    v3, m33, q4, e43 : float64[16, 3], float64[8, 3, 3], float64[2, 4], float64[2, 4, 3]
-        Small scratch arrays (no allocation here).
+    s : float64[N_RS]
+        Scratch (layout ``RS_*`` above; no allocation here).
     mu_s : float
         Smoothing of the FB rows (``fb_smooth``); 0 gives the plain FB of the model.
 
@@ -161,58 +310,29 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
     et = prm[P_ET]
     eo = prm[P_EO]
     er = prm[P_ER]
-    nrm = prm[P_N : P_N + 3]
-    tt = prm[P_T : P_T + 3]
-    oo = prm[P_O : P_O + 3]
-    w0 = sc[S_W : S_W + 3]
-    vnew = z[0:3]
-    wnew = z[3:6]
+    # offsets: v+ = z[0:3], w+ = z[3:6], w = sc[S_W:], n = prm[P_N:], t = prm[P_T:], o = prm[P_O:]
 
-    R = m33[0]
-    Jth = m33[1]
-    Ip = m33[2]
-    T1 = m33[3]
-    T2 = m33[4]
-    T3 = m33[5]
-    HL = m33[6]
-    Hb = m33[7]
-    qn = q4[0]
-    xp = v3[0]
-    r = v3[1]
-    y = v3[2]
-    gb = v3[3]
-    Ni = v3[4]
-    Fc = v3[5]
-    t1 = v3[6]
-    t2 = v3[7]
-    dl = v3[8]
-    Ipd = v3[9]
-    Ipw = v3[10]
-    vc = v3[11]
-    nc = v3[12]
-    mw = v3[13]
-
-    quat_step(sc[S_Q : S_Q + 4], wnew, h, qn, e43[0], e43[1], Jth)
-    quat_to_rot(qn, R)
+    _quat_step(sc, z, h, s)
+    _quat_to_rot(s)
     for i in range(3):
-        xp[i] = sc[S_X + i] + h * vnew[i]
-        dl[i] = wnew[i] - w0[i]
+        s[RS_XP + i] = sc[S_X + i] + h * z[i]
+        s[RS_DL + i] = z[3 + i] - sc[S_W + i]
     # I+ = R Ib R^T
     for i in range(3):
         for j in range(3):
             acc = 0.0
             for k in range(3):
-                acc += prm[P_IB + 3 * i + k] * R[j, k]
-            T1[i, j] = acc
-    _mat3(R, T1, Ip)
+                acc += prm[P_IB + 3 * i + k] * s[RS_R + 3 * j + k]
+            s[RS_M1 + 3 * i + j] = acc
+    _mm(s, RS_R, RS_M1, RS_IP)
     for i in range(3):
         a = 0.0
         b = 0.0
         for j in range(3):
-            a += Ip[i, j] * dl[j]
-            b += Ip[i, j] * w0[j]
-        Ipd[i] = a
-        Ipw[i] = b
+            a += s[RS_IP + 3 * i + j] * s[RS_DL + j]
+            b += s[RS_IP + 3 * i + j] * sc[S_W + j]
+        s[RS_IPD + i] = a
+        s[RS_IPW + i] = b
 
     for i in range(n):
         F[i] = 0.0
@@ -223,20 +343,20 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
                 J[i, j] = 0.0
 
     # ---- Newton-Euler, applied part --------------------------------------------------
-    cross(w0, Ipw, t1)
+    _cr(sc, S_W, s, RS_IPW, s, RS_V1)
     for i in range(3):
-        F[i] = m * (vnew[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
-        F[3 + i] = Ipd[i] / h + t1[i]
+        F[i] = m * (z[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
+        F[3 + i] = s[RS_IPD + i] / h + s[RS_V1 + i]
     torque_end = prm[P_TORQUE_END] > 0.5
     if torque_end:
         for i in range(3):
             acc = 0.0
             for j in range(3):
-                acc += R[i, j] * prm[P_EB + j]
-            mw[i] = acc
-        cross(mw, sc[S_BEND : S_BEND + 3], t2)
+                acc += s[RS_R + 3 * i + j] * prm[P_EB + j]
+            s[RS_MW + i] = acc
+        _cr(s, RS_MW, sc, S_BEND, s, RS_V2)
         for i in range(3):
-            F[3 + i] -= t2[i]
+            F[3 + i] -= s[RS_V2 + i]
     else:
         for i in range(3):
             F[3 + i] -= sc[S_TM + i]
@@ -245,34 +365,30 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
         for i in range(3):
             J[i, i] = m / h
         # d/dw of I+ dl / h + w0 x (I+ w0): (-[I+ dl]x + I+ [dl]x) Jth / h + [w0]x(-[I+ w0]x + I+ [w0]x) Jth
-        skew(Ipd, T1)
-        skew(dl, T2)
-        _mat3(Ip, T2, T3)
-        for i in range(3):
-            for j in range(3):
-                T3[i, j] = (T3[i, j] - T1[i, j]) / h
-        skew(Ipw, T1)
-        skew(w0, T2)
-        _mat3(Ip, T2, HL)
-        for i in range(3):
-            for j in range(3):
-                HL[i, j] -= T1[i, j]
-        _mat3(T2, HL, T1)  # [w0]x (...)
-        for i in range(3):
-            for j in range(3):
-                T3[i, j] += T1[i, j]
+        _sk(s, RS_IPD, s, RS_M1)
+        _sk(s, RS_DL, s, RS_M2)
+        _mm(s, RS_IP, RS_M2, RS_M3)
+        for i in range(9):
+            s[RS_M3 + i] = (s[RS_M3 + i] - s[RS_M1 + i]) / h
+        _sk(s, RS_IPW, s, RS_M1)
+        _sk(sc, S_W, s, RS_M2)
+        _mm(s, RS_IP, RS_M2, RS_HL)
+        for i in range(9):
+            s[RS_HL + i] -= s[RS_M1 + i]
+        _mm(s, RS_M2, RS_HL, RS_M1)  # [w0]x (...)
+        for i in range(9):
+            s[RS_M3 + i] += s[RS_M1 + i]
         if torque_end:
             # T = mw x B, d mw = -[mw]x dtheta -> dT = [B]x [mw]x dtheta
-            skew(sc[S_BEND : S_BEND + 3], T1)
-            skew(mw, T2)
-            _mat3(T1, T2, HL)
-            for i in range(3):
-                for j in range(3):
-                    T3[i, j] -= HL[i, j]
-        _mat3(T3, Jth, T1)
+            _sk(sc, S_BEND, s, RS_M1)
+            _sk(s, RS_MW, s, RS_M2)
+            _mm(s, RS_M1, RS_M2, RS_HL)
+            for i in range(9):
+                s[RS_M3 + i] -= s[RS_HL + i]
+        _mm(s, RS_M3, RS_JTH, RS_M1)
         for i in range(3):
             for j in range(3):
-                J[3 + i, 3 + j] = Ip[i, j] / h + T1[i, j]
+                J[3 + i, 3 + j] = s[RS_IP + 3 * i + j] / h + s[RS_M1 + 3 * i + j]
 
     # ---- contact blocks --------------------------------------------------------------
     K = pstart.shape[0] - 1
@@ -295,119 +411,115 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
         sig = z[isg]
         ls = z[ils]
         ln = z[iln]
-        a1 = z[ia1 : ia1 + 3]
-        a2 = z[ia2 : ia2 + 3]
         for i in range(3):
-            r[i] = a1[i] - xp[i]
-            Fc[i] = ln * nrm[i] + lt * tt[i] + lo * oo[i]
+            s[RS_R1 + i] = z[ia1 + i] - s[RS_XP + i]
+            s[RS_FC + i] = ln * prm[P_N + i] + lt * prm[P_T + i] + lo * prm[P_O + i]
         for i in range(3):
             acc = 0.0
             for j in range(3):
-                acc += R[j, i] * r[j]
-            y[i] = acc
-        cross(r, Fc, t1)
+                acc += s[RS_R + 3 * j + i] * s[RS_R1 + j]
+            s[RS_Y + i] = acc
+        _cr(s, RS_R1, s, RS_FC, s, RS_V1)
         for i in range(3):
-            F[i] -= Fc[i]
-            F[3 + i] -= t1[i] + lr * nrm[i]
-            F[ia1 + i] = a1[i] - a2[i] - ls * nrm[i]
-            nc[i] = nrm[i]
+            F[i] -= s[RS_FC + i]
+            F[3 + i] -= s[RS_V1 + i] + lr * prm[P_N + i]
+            F[ia1 + i] = z[ia1 + i] - z[ia2 + i] - ls * prm[P_N + i]
+            s[RS_NC + i] = prm[P_N + i]
         if want_J:
             for i in range(3):
-                J[i, iln] -= nrm[i]
-                J[i, ilt] -= tt[i]
-                J[i, ilo] -= oo[i]
-                J[3 + i, ilr] -= nrm[i]
-            skew(Fc, T1)
+                J[i, iln] -= prm[P_N + i]
+                J[i, ilt] -= prm[P_T + i]
+                J[i, ilo] -= prm[P_O + i]
+                J[3 + i, ilr] -= prm[P_N + i]
+            _sk(s, RS_FC, s, RS_M1)
             for i in range(3):
                 for j in range(3):
-                    J[3 + i, ia1 + j] += T1[i, j]
-                    J[3 + i, j] -= h * T1[i, j]
-                    HL[i, j] = 0.0
-            cross(r, nrm, t1)
-            cross(r, tt, t2)
+                    J[3 + i, ia1 + j] += s[RS_M1 + 3 * i + j]
+                    J[3 + i, j] -= h * s[RS_M1 + 3 * i + j]
+                    s[RS_HL + 3 * i + j] = 0.0
+            _cr(s, RS_R1, prm, P_N, s, RS_V1)
+            _cr(s, RS_R1, prm, P_T, s, RS_V2)
             for i in range(3):
-                J[3 + i, iln] -= t1[i]
-                J[3 + i, ilt] -= t2[i]
-            cross(r, oo, t1)
+                J[3 + i, iln] -= s[RS_V1 + i]
+                J[3 + i, ilt] -= s[RS_V2 + i]
+            _cr(s, RS_R1, prm, P_O, s, RS_V1)
             for i in range(3):
-                J[3 + i, ilo] -= t1[i]
+                J[3 + i, ilo] -= s[RS_V1 + i]
                 J[ia1 + i, ia1 + i] = 1.0
                 J[ia1 + i, ia2 + i] = -1.0
-                J[ia1 + i, ils] = -nrm[i]
+                J[ia1 + i, ils] = -prm[P_N + i]
 
         # normal cone and the robot's constraint rows
         for ic in range(mk):
             c = c0 + ic
             li = z[il0 + ic]
-            fval = constraint_eval(ctype[c], cdata[c], y, gb, Hb)
+            fval = _constraint(ctype[c], cdata, c, s)
             for i in range(3):
                 acc = 0.0
                 for j in range(3):
-                    acc += R[i, j] * gb[j]
-                Ni[i] = acc
+                    acc += s[RS_R + 3 * i + j] * s[RS_GB + j]
+                s[RS_NI + i] = acc
             for i in range(3):
-                nc[i] += li * Ni[i]
+                s[RS_NC + i] += li * s[RS_NI + i]
             row = il0 + ic
             isfb[row] = 1
             fbb[row] = -fval
             if want_J:
                 # raw d(-f_i) = -N_i . (da1 - h dv + [r]x Jth dw)
-                cross(r, Ni, t1)
+                _cr(s, RS_R1, s, RS_NI, s, RS_V1)
                 for j in range(3):
-                    J[off + 3 + j, row] = Ni[j]  # d(normal cone)/d l_i
-                    J[row, ia1 + j] = -Ni[j]
-                    J[row, j] = h * Ni[j]
+                    J[off + 3 + j, row] = s[RS_NI + j]  # d(normal cone)/d l_i
+                    J[row, ia1 + j] = -s[RS_NI + j]
+                    J[row, j] = h * s[RS_NI + j]
                     acc = 0.0
                     for k in range(3):
-                        acc += t1[k] * Jth[k, j]
+                        acc += s[RS_V1 + k] * s[RS_JTH + 3 * k + j]
                     J[row, 3 + j] = acc
-                if li != 0.0 and (Hb[1, 1] != 0.0 or Hb[2, 2] != 0.0 or Hb[0, 0] != 0.0):
+                if li != 0.0 and (s[RS_HB + 4] != 0.0 or s[RS_HB + 8] != 0.0 or s[RS_HB] != 0.0):
                     # HL += l_i R Hb R^T
                     for i in range(3):
                         for j in range(3):
                             acc = 0.0
                             for k in range(3):
-                                acc += Hb[i, k] * R[j, k]
-                            T1[i, j] = acc
-                    _mat3(R, T1, T2)
-                    for i in range(3):
-                        for j in range(3):
-                            HL[i, j] += li * T2[i, j]
+                                acc += s[RS_HB + 3 * i + k] * s[RS_R + 3 * j + k]
+                            s[RS_M1 + 3 * i + j] = acc
+                    _mm(s, RS_R, RS_M1, RS_M2)
+                    for i in range(9):
+                        s[RS_HL + i] += li * s[RS_M2 + i]
         for i in range(3):
-            F[off + 3 + i] = nc[i]
+            F[off + 3 + i] = s[RS_NC + i]
         if want_J:
             # d(sum l_i N_i) = HL (da1 - h dv + [r]x Jth dw) - [sum l_i N_i]x Jth dw
-            skew(r, T1)
-            _mat3(HL, T1, T2)
+            _sk(s, RS_R1, s, RS_M1)
+            _mm(s, RS_HL, RS_M1, RS_M2)
             for i in range(3):
-                t1[i] = nc[i] - nrm[i]
-            skew(t1, T1)
+                s[RS_V1 + i] = s[RS_NC + i] - prm[P_N + i]
+            _sk(s, RS_V1, s, RS_M1)
+            for i in range(9):
+                s[RS_M2 + i] -= s[RS_M1 + i]
+            _mm(s, RS_M2, RS_JTH, RS_M3)
             for i in range(3):
                 for j in range(3):
-                    T2[i, j] -= T1[i, j]
-            _mat3(T2, Jth, T3)
-            for i in range(3):
-                for j in range(3):
-                    J[off + 3 + i, ia1 + j] += HL[i, j]
-                    J[off + 3 + i, j] -= h * HL[i, j]
-                    J[off + 3 + i, 3 + j] += T3[i, j]
+                    J[off + 3 + i, ia1 + j] += s[RS_HL + 3 * i + j]
+                    J[off + 3 + i, j] -= h * s[RS_HL + 3 * i + j]
+                    J[off + 3 + i, 3 + j] += s[RS_M3 + 3 * i + j]
 
         # maximum dissipation
-        cross(wnew, r, t1)
+        _cr(z, 3, s, RS_R1, s, RS_V1)
         for i in range(3):
-            vc[i] = vnew[i] + t1[i]
-        vt = tt[0] * vc[0] + tt[1] * vc[1] + tt[2] * vc[2]
-        vo = oo[0] * vc[0] + oo[1] * vc[1] + oo[2] * vc[2]
-        vr = nrm[0] * wnew[0] + nrm[1] * wnew[1] + nrm[2] * wnew[2]
+            s[RS_VC + i] = z[i] + s[RS_V1 + i]
+        vt = prm[P_T] * s[RS_VC] + prm[P_T + 1] * s[RS_VC + 1] + prm[P_T + 2] * s[RS_VC + 2]
+        vo = prm[P_O] * s[RS_VC] + prm[P_O + 1] * s[RS_VC + 1] + prm[P_O + 2] * s[RS_VC + 2]
+        vr = prm[P_N] * z[3] + prm[P_N + 1] * z[4] + prm[P_N + 2] * z[5]
         F[off + 6] = mu * et * ln * vt + lt / et * sig
         F[off + 7] = mu * eo * ln * vo + lo / eo * sig
         F[off + 8] = mu * er * ln * vr + lr / er * sig
         if want_J:
-            _friction_jac(J, off + 6, ilt, isg, iln, ia1, mu * et * ln, mu * et * vt, lt / et, sig / et, tt, wnew, r, h, t1, t2)
-            _friction_jac(J, off + 7, ilo, isg, iln, ia1, mu * eo * ln, mu * eo * vo, lo / eo, sig / eo, oo, wnew, r, h, t1, t2)
+            _friction_jac(J, off + 6, ilt, isg, iln, ia1, mu * et * ln, mu * et * vt, lt / et, sig / et, prm, P_T, z, h, s)
+            _friction_jac(J, off + 7, ilo, isg, iln, ia1, mu * eo * ln, mu * eo * vo, lo / eo, sig / eo, prm, P_O, z, h, s)
             cf = mu * er * ln
             for j in range(3):
-                J[off + 8, 3 + j] = cf * nrm[j]
+                J[off + 8, 3 + j] = cf * prm[P_N + j]
             J[off + 8, iln] = mu * er * vr
             J[off + 8, isg] = lr / er
             J[off + 8, ilr] = sig / er
@@ -423,13 +535,13 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, v3, m33,
             J[isg, ilr] = -2.0 * lr / (er * er)
         # plane constraint at a2, non-penetration at a1
         isfb[ils] = 1
-        fbb[ils] = -(nrm[0] * a2[0] + nrm[1] * a2[1] + nrm[2] * a2[2])
+        fbb[ils] = -(prm[P_N] * z[ia2] + prm[P_N + 1] * z[ia2 + 1] + prm[P_N + 2] * z[ia2 + 2])
         isfb[iln] = 1
-        fbb[iln] = nrm[0] * a1[0] + nrm[1] * a1[1] + nrm[2] * a1[2]
+        fbb[iln] = prm[P_N] * z[ia1] + prm[P_N + 1] * z[ia1 + 1] + prm[P_N + 2] * z[ia1 + 2]
         if want_J:
             for j in range(3):
-                J[ils, ia2 + j] = -nrm[j]
-                J[iln, ia1 + j] = nrm[j]
+                J[ils, ia2 + j] = -prm[P_N + j]
+                J[iln, ia1 + j] = prm[P_N + j]
         off += B_FIXED + mk
 
     # ---- Fischer-Burmeister rows (row index == its complementarity variable) ---------
