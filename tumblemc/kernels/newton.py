@@ -171,11 +171,14 @@ def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s):  # type: ignore[no-untyped-def]
-    """Armijo backtracking along ``d``; on success ``ws.zt`` holds the new point.
+def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s):  # type: ignore[no-untyped-def]
+    """Armijo backtracking along ``d``; on success ``zt`` holds the new point.
+
+    The workspace arrays come one by one, not in the ``Workspace`` tuple: every array
+    taken out of a tuple costs Numba an atomic reference-count increment and decrement.
 
     With ``project``, trial points are projected onto ``z_i >= 0`` for the complementarity variables
-    (``ws.isfb[i] != 0``: sigma, l_i, l_s, lam_n), where every solution lies. Without it
+    (``isfb[i] != 0``: sigma, l_i, l_s, lam_n), where every solution lies. Without it
     the iterates can stall at spurious stationary points of the merit with sigma < 0
     (friction along the slip, which the dissipation rows alone admit), e.g. on sliding
     landings. Sufficient decrease is measured along the projected displacement
@@ -183,16 +186,6 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n,
     Yamashita & Fukushima 2004). Projection slows convergence at sticking contacts
     (sigma = 0), so the stepper tries it only after the plain iteration failed.
     """
-    # the workspace arrays taken out of the tuple once: each access through ``ws`` costs
-    # an atomic reference-count increment and decrement
-    isfb = ws.isfb
-    zt = ws.zt
-    g = ws.g
-    Ft = ws.Ft
-    Jt = ws.Jt
-    Ft_isfb = ws.Ft_isfb
-    fbb = ws.fbb
-    rs = ws.rs
     t = 1.0
     c = opts[O_ARMIJO]
     while t >= opts[O_MINSTEP]:
@@ -266,6 +259,8 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
     rs = ws.rs
     zt = ws.zt
     Ft = ws.Ft
+    Jt = ws.Jt
+    Ft_isfb = ws.Ft_isfb
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
@@ -322,7 +317,9 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
                 slope += g[i] * d[i]
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
-                accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s)
+                accepted, th_new = _line_search(
+                    z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s
+                )
         # 2. Levenberg-Marquardt
         if not accepted:
             fallbacks += 1
@@ -332,12 +329,16 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
                 for i in range(n):
                     slope += g[i] * d[i]
                 if slope < 0.0:
-                    accepted, th_new = _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s)
+                    accepted, th_new = _line_search(
+                        z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s
+                    )
         # 3. steepest descent
         if not accepted:
             for i in range(n):
                 d[i] = -g[i] / max(gnorm, 1e-300)
-            accepted, th_new = _line_search(z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, ws, opts, n, project, mu_s)
+            accepted, th_new = _line_search(
+                z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s
+            )
         if not accepted:
             status = ST_LINESEARCH
             break
