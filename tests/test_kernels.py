@@ -481,13 +481,13 @@ def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
     x = b.copy()
     cond = np.linalg.cond(A)
     assert cond < 1e10  # the construction keeps these systems well posed
-    assert lu_factor(M, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt)
+    assert lu_factor(M, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0)
     assert sorted(ws.piv) == list(range(n))
     lu_solve(M, ws.piv, x, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, ws.y)
     np.testing.assert_allclose(A @ x, b, rtol=0, atol=1e-13 * cond * (1 + np.abs(b).max()))
     S = A.copy()
     S[:, seed % n] = 0.0  # a zero column: singular
-    assert not lu_factor(S, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt)
+    assert not lu_factor(S, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0)
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -524,3 +524,36 @@ def test_residual_scratch_helpers_match_geometry(seed: int) -> None:
         assert f1 == f2
         assert np.array_equal(s[Rk.RS_GB : Rk.RS_GB + 3], g)
         assert np.array_equal(s[Rk.RS_HB : Rk.RS_HB + 9], H.ravel())
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
+    """``copy_amax`` copies J bit for bit and returns max |J| (signed zeros, subnormals, inf
+    included), or -1 with a NaN so that ``lu_factor`` scans (skipping NaN) itself; the LU
+    with the given maximum is the LU with its own scan."""
+    from tumblemc.kernels.newton import copy_amax, lu_factor
+
+    rng = np.random.default_rng(seed)
+    n = 5 + seed
+    J = np.where(rng.random((n, n)) < 0.3, rng.standard_normal((n, n)) * 10.0 ** rng.integers(-310, 3, (n, n)), 0.0)
+    J[0, 0] = -0.0
+    J[np.arange(n), rng.permutation(n)] += 1.0
+    if seed % 3 == 1:
+        J[1, 2] = -np.inf
+    A = np.full((n + 2, n + 2), 7.0)  # larger than n: only the leading block is copied
+    J2 = np.full((n + 2, n + 2), 3.0)
+    J2[:n, :n] = J
+    amax = copy_amax(J2, A, n)
+    assert np.array_equal(A[:n, :n].view(np.int64), J.view(np.int64))
+    assert np.all(A[n:, :] == 7.0) and np.all(A[:, n:] == 7.0)
+    assert amax == np.abs(J).max()
+    if seed % 3 == 2:
+        J2[2, 1] = np.nan
+        assert copy_amax(J2, A, n) == -1.0
+    else:
+        ws1, ws2 = make_workspace(n + 2), make_workspace(n + 2)
+        A1, A2 = J2.copy(), J2.copy()
+        ok1 = lu_factor(A1, ws1.piv, n, ws1.unz, ws1.ucnt, ws1.lnz, ws1.lcnt, -1.0)
+        ok2 = lu_factor(A2, ws2.piv, n, ws2.unz, ws2.ucnt, ws2.lnz, ws2.lcnt, amax)
+        assert ok1 == ok2
+        assert np.array_equal(A1, A2, equal_nan=True) and np.array_equal(ws1.piv, ws2.piv)
