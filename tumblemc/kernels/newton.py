@@ -34,7 +34,6 @@ Workspace = namedtuple(
         "isfb",
         "piv",
         "rs",
-        "Jt",
         "Ft_isfb",
         "unz",
         "ucnt",
@@ -52,7 +51,7 @@ def make_workspace(n: int) -> Workspace:
     return Workspace(
         f(n), f((n, n)), f((n, n)), f(n), f(n), f(n), f(n), f(n),
         np.zeros(n, i), np.zeros(n, i),
-        f(N_RS), f((n, n)), np.zeros(n, i),
+        f(N_RS), np.zeros(n, i),
         np.zeros((n, n), i), np.zeros(n, i), np.zeros((n, n), i), np.zeros(n, i), f(n),
     )  # fmt: skip
 
@@ -207,11 +206,13 @@ def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s):  # type: ignore[no-untyped-def]
+def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s):  # type: ignore[no-untyped-def]
     """Armijo backtracking along ``d``; on success ``zt`` holds the new point.
 
     The workspace arrays come one by one, not in the ``Workspace`` tuple: every array
     taken out of a tuple costs Numba an atomic reference-count increment and decrement.
+    ``J`` is only passed through: the trial residuals do not form the Jacobian, so the
+    solver's J survives the line search.
 
     With ``project``, trial points are projected onto ``z_i >= 0`` for the complementarity variables
     (``isfb[i] != 0``: sigma, l_i, l_s, lam_n), where every solution lies. Without it
@@ -239,7 +240,7 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g,
             target = theta + c * dec if dec < 0.0 else theta * (1.0 - c * t)
         else:
             target = theta + c * t * slope
-        th = residual(zt, sc, prm, ctype, cdata, pstart, Ft, Jt, False, Ft_isfb, fbb, rs, mu_s)
+        th = residual(zt, sc, prm, ctype, cdata, pstart, Ft, J, False, Ft_isfb, fbb, rs, mu_s)
         if th <= target:
             return True, th
         t *= 0.5
@@ -295,7 +296,6 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
     rs = ws.rs
     zt = ws.zt
     Ft = ws.Ft
-    Jt = ws.Jt
     Ft_isfb = ws.Ft_isfb
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
@@ -352,7 +352,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
                 accepted, th_new = _line_search(
-                    z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s
+                    z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s
                 )
         # 2. Levenberg-Marquardt
         if not accepted:
@@ -364,14 +364,14 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
                     slope += g[i] * d[i]
                 if slope < 0.0:
                     accepted, th_new = _line_search(
-                        z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s
+                        z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s
                     )
         # 3. steepest descent
         if not accepted:
             for i in range(n):
                 d[i] = -g[i] / max(gnorm, 1e-300)
             accepted, th_new = _line_search(
-                z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, Jt, Ft_isfb, fbb, rs, opts, n, project, mu_s
+                z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s
             )
         if not accepted:
             status = ST_LINESEARCH

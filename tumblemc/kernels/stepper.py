@@ -318,7 +318,7 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
 @jit
 def _plain_residual(z, sc, prm, geo, ws):  # type: ignore[no-untyped-def]
     """Max-norm of the model's (unsmoothed) residual at ``z``."""
-    residual(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws.Ft, ws.Jt, False, ws.Ft_isfb, ws.fbb, ws.rs, 0.0)
+    residual(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws.Ft, ws.J, False, ws.Ft_isfb, ws.fbb, ws.rs, 0.0)
     r = 0.0
     for i in range(z.shape[0]):
         r = max(r, abs(ws.Ft[i]))
