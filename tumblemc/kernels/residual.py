@@ -105,6 +105,11 @@ def n_unknowns(pstart) -> int:  # type: ignore[no-untyped-def]
 # Views of a scratch array (``m33[0]``, ``z[0:3]``, ...) each cost Numba an atomic
 # reference-count increment and decrement, about a tenth of a time step's cost, so the
 # residual addresses one flat scratch array (and z, sc, prm) by offsets instead.
+# The small kernels below (_cr, _sk, _quat_E, _quat_step, _quat_to_rot, _constraint) are
+# offset forms of geometry.py's, with the same arithmetic (tests/test_kernels.py checks
+# them bit for bit). Moving them into geometry.py, as the one implementation with
+# wrappers for the stepper, made a step about 4% slower (calls across kernel modules),
+# so they stay here.
 # 3x3 matrices row-major (9 entries), vectors 3, the quaternion 4, the E matrices 12.
 RS_R = 0  # R+ (rotation at the end of the step)
 RS_JTH = 9  # d(theta)/d(w+)
