@@ -30,9 +30,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tumblemc.batch import simulate_rows
-from tumblemc.engine import _rows, grid_of, local_client, run_study, warm_kernels
-from tumblemc.sampling import design, load_config
+from tumblemc.model.rows import simulate_rows
+from tumblemc.study.config import load_config
+from tumblemc.study.design import design, grid_of
+from tumblemc.study.engine import design_rows, local_client, run_study, warm_kernels
 
 
 def study(samples: int) -> dict:
@@ -56,7 +57,7 @@ def bare(cfg_d: dict) -> float:
     t0 = time.perf_counter()
     for key in dict.fromkeys(des["cell_key"].values):
         idx = np.flatnonzero(des["cell_key"].values == key)
-        simulate_rows(str(des["shape"].values[idx[0]]), _rows(cfg, des, idx), grid_of(cfg))
+        simulate_rows(str(des["shape"].values[idx[0]]), design_rows(cfg, des, idx), grid_of(cfg))
     return time.perf_counter() - t0
 
 
@@ -106,7 +107,7 @@ def main() -> int:
         per_cell = []
         for i in sorted(first):
             t1 = time.perf_counter()
-            simulate_rows(str(des["shape"].values[i]), _rows(cfg, des, [i]), grid_of(cfg))
+            simulate_rows(str(des["shape"].values[i]), design_rows(cfg, des, [i]), grid_of(cfg))
             per_cell.append(time.perf_counter() - t1)
         wall = time.perf_counter() - t0
         mean = float(np.mean(per_cell))

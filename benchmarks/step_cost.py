@@ -5,7 +5,7 @@ The same as ``tumblemc bench``; kept here so benchmarks live apart from the test
 
 import sys
 
-from tumblemc.bench import main
+from tumblemc.stepcost import main
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))

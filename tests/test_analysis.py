@@ -10,8 +10,8 @@ import pytest
 import xarray as xr
 from scipy.stats import binomtest
 
-from tumblemc.analysis import check_summary, maps, proportion_ci
-from tumblemc.plotting_study import plot_ratio_distribution, plot_study, plot_success_curves, plot_success_heatmap
+from tumblemc.analysis.maps import check_summary, maps, proportion_ci
+from tumblemc.viz.study import plot_ratio_distribution, plot_study, plot_success_curves, plot_success_heatmap
 
 # regression tolerances: closed form (Wilson) and beta quantiles (Clopper-Pearson) against
 # scipy's formula and root finding (measured: at most 5e-13 apart).

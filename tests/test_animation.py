@@ -14,11 +14,11 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 import tumblemc
-from tumblemc import animation
-from tumblemc.animation import animate_result, animate_run, render_frame
 from tumblemc.cli import main
-from tumblemc.shapes import SHAPES, get_shape
-from tumblemc.simulate import plane_frame
+from tumblemc.model.frames import plane_frame
+from tumblemc.model.shapes.library import SHAPES, get_shape
+from tumblemc.viz import animation
+from tumblemc.viz.animation import animate_result, animate_run, render_frame
 
 
 @pytest.fixture(scope="module")

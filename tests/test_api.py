@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 import tumblemc
-from tumblemc.params import PRESETS, Params
+from tumblemc.model.params import PRESETS, Params
 
 
 @pytest.mark.parametrize(
@@ -189,7 +189,8 @@ def test_last_step_is_always_recorded() -> None:
 def test_field_direction_convention() -> None:
     from tumblemc.kernels import layout as L
     from tumblemc.kernels.stepper import field_dir
-    from tumblemc.simulate import plane_frame, prepare
+    from tumblemc.model.frames import plane_frame
+    from tumblemc.model.run import prepare
 
     spec = prepare(incline_deg=30.0, freq_hz=2.0, duration_s=0.001)
     fr = plane_frame(30.0)
@@ -216,8 +217,8 @@ def test_torque_at_end_of_step_runs_and_tracks_no_slip() -> None:
 
 def test_contact_state_classification() -> None:
     from tumblemc.kernels.stepper import _contact_state
-    from tumblemc.shapes import cuboid
-    from tumblemc.simulate import prepare
+    from tumblemc.model.run import prepare
+    from tumblemc.model.shapes.library import cuboid
 
     spec = prepare(duration_s=0.001, line_contact_fraction=0.1)
     geo, prm = spec.geo, spec.prm

@@ -12,8 +12,8 @@ from matplotlib.figure import Figure
 
 import tumblemc
 from tumblemc.cli import format_table, main, netcdf_ready, parse_overrides, parse_value
-from tumblemc.plotting import _strip_offsets, plot_run, side_view_outline
-from tumblemc.shapes import get_shape
+from tumblemc.model.shapes.library import get_shape
+from tumblemc.viz.run import plot_run, side_view_outline, strip_offsets
 
 SHORT = "0.05"
 
@@ -77,12 +77,12 @@ def test_usage_errors_and_version(capsys):
 
 def test_validate_and_bench_delegate(monkeypatch, tmp_path):
     calls: list[tuple] = []
-    val = types.ModuleType("tumblemc.validation")
+    val = types.ModuleType("tumblemc.claims")
     val.run_validation = lambda out_dir, quick: calls.append(("validate", out_dir, quick)) or 3  # type: ignore[attr-defined]
-    bench = types.ModuleType("tumblemc.bench")
+    bench = types.ModuleType("tumblemc.stepcost")
     bench.main = lambda args: calls.append(("bench", list(args))) or 0  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "tumblemc.validation", val)
-    monkeypatch.setitem(sys.modules, "tumblemc.bench", bench)
+    monkeypatch.setitem(sys.modules, "tumblemc.claims", val)
+    monkeypatch.setitem(sys.modules, "tumblemc.stepcost", bench)
     assert main(["validate", "--quick", "--out", str(tmp_path)]) == 3
     assert main(["validate"]) == 3
     assert main(["bench", "--quick", "--repeats", "3"]) == 0
@@ -128,12 +128,12 @@ def test_side_view_outline_at_rest(short_run):
 def test_strip_layouts():
     box = (np.array([-4e-4, 4e-4, 4e-4, -4e-4]), np.zeros(4))
     moved = [(box[0] + k * 5e-5, box[1]) for k in range(4)]  # slow: spread uphill
-    off, layout, extra = _strip_offsets(moved, 8e-4)
+    off, layout, extra = strip_offsets(moved, 8e-4)
     assert layout == "spread" and extra > 0 and np.all(np.diff(off) > 0)
     far = [(box[0] + k * 1e-3, box[1]) for k in range(4)]  # already apart
-    assert _strip_offsets(far, 8e-4)[1] == "true"
+    assert strip_offsets(far, 8e-4)[1] == "true"
     slide = [(box[0] - k * 1e-2, box[1]) for k in range(4)]  # fast slide downhill
-    assert _strip_offsets(slide, 8e-4)[1] == "slots"
+    assert strip_offsets(slide, 8e-4)[1] == "slots"
 
 
 def test_plot_run_returns_figure(short_run, tmp_path):

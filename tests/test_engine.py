@@ -17,10 +17,11 @@ import pytest
 import xarray as xr
 
 import tumblemc
-from tumblemc.batch import TimeGrid, simulate_rows
-from tumblemc.engine import TIMESTAMP_ATTRS, run_study, study_status
 from tumblemc.io import StudyStateError, open_result, parts_dir
-from tumblemc.sampling import load_config
+from tumblemc.model.rows import TimeGrid, simulate_rows
+from tumblemc.schema import TIMESTAMP_ATTRS
+from tumblemc.study.config import load_config
+from tumblemc.study.engine import run_study, study_status
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ROOT / "studies" / "smoke.toml"
@@ -148,7 +149,7 @@ def test_config_change_refused_then_fresh(reference: Path, tmp_path: Path) -> No
     part = tmp_path / "part.nc"
     parts_dir(part).mkdir()
     from tumblemc.io import ShardStore
-    from tumblemc.sampling import config_hash, config_to_json
+    from tumblemc.study.config import config_hash, config_to_json
 
     c = load_config(tiny())
     ShardStore(part, config_to_json(c), config_hash(c)).open()
@@ -229,7 +230,7 @@ def _to_toml(d: dict[str, Any]) -> str:
 
 @pytest.mark.slow
 def test_local_cluster_1_and_2_workers_identical_to_serial(reference: Path, tmp_path: Path) -> None:
-    from tumblemc.engine import local_client
+    from tumblemc.study.engine import local_client
 
     for workers in (1, 2):
         client = local_client(workers)
@@ -245,7 +246,7 @@ def test_local_cluster_1_and_2_workers_identical_to_serial(reference: Path, tmp_
 
 @pytest.mark.slow
 def test_worker_killed_mid_study_loses_and_duplicates_nothing(tmp_path: Path) -> None:
-    from tumblemc.engine import local_client
+    from tumblemc.study.engine import local_client
 
     cfg = tiny(freq_hz=1, samples=6, incline_deg=[0, 30])  # 12 runs of 2 s
     ref = tmp_path / "ref.nc"
@@ -315,7 +316,7 @@ def test_critical_incline_mode_brackets_and_checks(tmp_path: Path) -> None:
     assert 0.0 <= runs.attrs["monotonicity_disagreement_rate"] <= 1.0
     assert runs["check_grid_climbed"].shape == (2, 4)
     assert runs.attrs["simulations_total"] == int(runs["n_simulations"].sum())
-    from tumblemc.plotting_study import plot_study
+    from tumblemc.viz.study import plot_study
 
     pngs = plot_study(runs, maps, tmp_path / "plots")
     assert [p.name for p in pngs] == ["success_curves.png", "critical_incline_distribution.png"]
@@ -328,7 +329,7 @@ def test_interrupted_fresh_run_resumes_over_an_old_result(reference: Path, tmp_p
     """An old result of config A and the shards of an interrupted --fresh run of config B:
     running B again (without --fresh) continues B instead of refusing."""
     from tumblemc.io import ShardStore
-    from tumblemc.sampling import config_hash, config_to_json
+    from tumblemc.study.config import config_hash, config_to_json
 
     out = tmp_path / "tiny.nc"
     out.write_bytes(reference.read_bytes())
@@ -339,7 +340,7 @@ def test_interrupted_fresh_run_resumes_over_an_old_result(reference: Path, tmp_p
 
 
 def test_a_batch_that_raises_is_recorded_row_by_row(monkeypatch: pytest.MonkeyPatch) -> None:
-    import tumblemc.engine as eng
+    import tumblemc.study.engine as eng
 
     real = eng.simulate_rows
 
@@ -357,7 +358,7 @@ def test_a_batch_that_raises_is_recorded_row_by_row(monkeypatch: pytest.MonkeyPa
 
 
 def test_critical_mode_needs_two_check_inclines_in_range() -> None:
-    from tumblemc.sampling import ConfigError
+    from tumblemc.study.checks import ConfigError
 
     cfg = {"name": "c", "mode": "critical_incline", "shapes": ["cuboid"], "presets": ["paper"], "incline_deg": [30, 45],
            "incline_range": {"min": 0, "max": 20}, "field_mT": 20, "freq_hz": 1, "samples": 2, "seed": 1}  # fmt: skip
@@ -368,7 +369,7 @@ def test_critical_mode_needs_two_check_inclines_in_range() -> None:
 def test_a_critical_check_task_that_raises_keeps_every_column(monkeypatch: pytest.MonkeyPatch) -> None:
     """The error row of a critical study's check task has the same columns as a normal one
     (the shards of a task are concatenated column by column)."""
-    import tumblemc.engine as eng
+    import tumblemc.study.engine as eng
 
     def boom(*args: Any, **kw: Any) -> Any:
         raise RuntimeError("boom")

@@ -429,7 +429,8 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     instead of h|w|: third order); a face tilted beyond SNAP_MAX_TILT is refused."""
     from tumblemc.kernels.geometry import quat_step, quat_to_rot
     from tumblemc.kernels.stepper import SNAP_MAX_TILT, _snap_flat
-    from tumblemc.simulate import prepare, quat_to_matrix, rot_to_quat
+    from tumblemc.model.frames import quat_to_matrix, rot_to_quat
+    from tumblemc.model.run import prepare
 
     spec = prepare(duration_s=0.01, incline_deg=20.0)
     n = spec.prm[L.P_N : L.P_N + 3]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tumblemc.simulate import plane_frame
+from tumblemc.model.frames import plane_frame
 
 G = 9.81
 PAPER = tumblemc.PRESETS["paper"]
@@ -71,7 +71,7 @@ def test_free_fall_matches_closed_form() -> None:
 
 
 def _energy(ds, shape_ipm: np.ndarray) -> np.ndarray:  # type: ignore[no-untyped-def]
-    from tumblemc.simulate import quat_to_matrix
+    from tumblemc.model.frames import quat_to_matrix
 
     m = float(ds.attrs["mass"])
     v = ds["velocity"].values
@@ -83,7 +83,7 @@ def _energy(ds, shape_ipm: np.ndarray) -> np.ndarray:  # type: ignore[no-untyped
 
 
 def test_no_energy_gain_with_field_off() -> None:
-    from tumblemc.shapes import cuboid
+    from tumblemc.model.shapes.library import cuboid
 
     ds = tumblemc.simulate(
         preset="paper",

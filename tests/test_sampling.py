@@ -16,22 +16,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from tumblemc.params import PRESETS, Params
-from tumblemc.sampling import (
-    DEFAULT_UNCERTAIN,
-    NEGLIGIBLE_MASS,
-    PHYSICAL_RANGE,
-    UNCERTAIN_PARAMS,
-    ConfigError,
-    StudyConfig,
-    cells,
-    config_hash,
-    config_to_json,
-    design,
-    load_config,
-    params_for_run,
-    run_kwargs,
-)
+from tumblemc.model.params import PHYSICAL_RANGE, PRESETS, Params
+from tumblemc.study.checks import ConfigError
+from tumblemc.study.config import StudyConfig, cells, config_hash, config_to_json, load_config
+from tumblemc.study.design import design, params_for_run, run_kwargs
+from tumblemc.study.distributions import DEFAULT_UNCERTAIN, NEGLIGIBLE_MASS, UNCERTAIN_PARAMS
 
 STUDIES = Path(__file__).resolve().parents[1] / "studies"
 N_SE = 4.0  # tolerance of the statistical checks, in standard errors of the estimate

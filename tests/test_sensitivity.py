@@ -19,18 +19,13 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from tumblemc.plotting_study import plot_prim, plot_sobol, plot_success_vs_parameter
-from tumblemc.sampling import PHYSICAL_RANGE, load_config, nominal_value
-from tumblemc.sensitivity import (
-    failure_region,
-    logistic_summary,
-    prim_box,
-    rank_correlation,
-    saltelli_design,
-    sobol_indices,
-    sobol_rows,
-    split_saltelli,
-)
+from tumblemc.analysis.prim import failure_region, prim_box
+from tumblemc.analysis.screening import logistic_summary, rank_correlation
+from tumblemc.analysis.sobol import saltelli_design, sobol_indices, split_saltelli
+from tumblemc.model.params import PHYSICAL_RANGE
+from tumblemc.study.config import load_config
+from tumblemc.study.distributions import nominal_value
+from tumblemc.study.sobol import sobol_rows
 from tumblemc.testing import (
     BOX_FAILURE_BOX,
     ISHIGAMI_BOUNDS,
@@ -43,6 +38,7 @@ from tumblemc.testing import (
     linear_indices,
     synthetic_runs,
 )
+from tumblemc.viz.sensitivity import plot_prim, plot_sobol, plot_success_vs_parameter
 
 # REGRESSION: literature values of the Ishigami indices (a = 7, b = 0.1) to 4 decimals
 ISHIGAMI_LITERATURE = {"S1": (0.3139, 0.4424, 0.0), "ST": (0.5576, 0.4424, 0.2437)}
@@ -306,8 +302,8 @@ def test_sensitivity_plots_write_png(tmp_path: Path) -> None:
 def test_robot_sobol_end_to_end_small() -> None:
     """The robot path runs and returns indices for every uncertain parameter (a smoke
     test of the plumbing: n = 4 is far too small for meaningful values)."""
-    from tumblemc.sampling import load_config
-    from tumblemc.sensitivity import robot_sobol
+    from tumblemc.study.config import load_config
+    from tumblemc.study.sobol import robot_sobol
 
     cfg = load_config(
         {

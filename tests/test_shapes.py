@@ -18,7 +18,9 @@ from matplotlib.path import Path
 from scipy.spatial import ConvexHull, QhullError
 
 import tumblemc
-from tumblemc.shapes import ARC_TOL_M, SHAPES, Constraint, Shape, cuboid, curved, extruded, get_shape, spiked, spiked_ends
+from tumblemc.model.shapes.library import SHAPES, cuboid, curved, get_shape, spiked, spiked_ends
+from tumblemc.model.shapes.profile import extruded
+from tumblemc.model.shapes.types import ARC_TOL_M, Constraint, Shape
 
 UM = 1e-6
 TIGHT = 1e-12  # relative: closed forms evaluated in floating point
@@ -515,7 +517,7 @@ def test_new_shapes_simulate(name: str) -> None:
 
 
 def test_plot_shapes_writes_png(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from tumblemc.plotting import plot_shapes
+    from tumblemc.viz.run import plot_shapes
 
     out = tmp_path / "shapes.png"
     fig = plot_shapes(path=out)

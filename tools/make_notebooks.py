@@ -34,7 +34,7 @@ from pathlib import Path
 from IPython.display import Image, display
 
 import tumblemc
-from tumblemc.plotting import plot_run, plot_shapes
+from tumblemc.viz.run import plot_run, plot_shapes
 
 out = Path("notebook_outputs")
 out.mkdir(exist_ok=True)""",
@@ -81,7 +81,7 @@ contact adheres. (`tumblemc animate run.nc` does the same from a saved run.)""",
     ),
     (
         "code",
-        """from tumblemc.animation import animate_run
+        """from tumblemc.viz.animation import animate_run
 
 gif = animate_run(ds, out / "tumble.gif", max_frames=40, fps=10)
 display(Image(filename=gif))""",
@@ -140,7 +140,7 @@ import numpy as np
 import xarray as xr
 import tumblemc
 from tumblemc.io import open_result
-from tumblemc.plotting_study import plot_ratio_distribution, plot_success_curves, plot_success_heatmap
+from tumblemc.viz.study import plot_ratio_distribution, plot_success_curves, plot_success_heatmap
 
 DATA = Path("..") / "data" / "example.nc"
 out = Path("notebook_outputs")
@@ -215,7 +215,7 @@ verdict agreement.""",
     ),
     (
         "code",
-        """from tumblemc.analysis import check_summary
+        """from tumblemc.analysis.maps import check_summary
 check_summary(runs)""",
     ),
 ]
@@ -244,9 +244,10 @@ from IPython.display import Image, display
 import numpy as np
 import tumblemc
 from tumblemc.io import open_result
-from tumblemc import sensitivity as sa
+from tumblemc.analysis import prim, screening, sobol
 from tumblemc.testing import ishigami, ishigami_indices
-from tumblemc.plotting_study import plot_prim, plot_sobol, plot_success_curves, plot_success_vs_parameter
+from tumblemc.viz.sensitivity import plot_prim, plot_sobol, plot_success_vs_parameter
+from tumblemc.viz.study import plot_success_curves
 
 out = Path("notebook_outputs")
 out.mkdir(exist_ok=True)
@@ -288,7 +289,7 @@ only), and a logistic regression of the binary outcome on standardized parameter
     ),
     (
         "code",
-        """rc = sa.rank_correlation(runs)
+        """rc = screening.rank_correlation(runs)
 rc["rho"].sel(substrate="aluminum").to_dataframe()["rho"].unstack("parameter").round(2)""",
     ),
     (
@@ -302,7 +303,7 @@ climb and some do not (the transition inclines).""",
          if 0 < float(maps.p_success.sel(shape=s, substrate=p, incline_deg=t)) < 1]
 print("cells with both outcomes:", mixed)
 shape, substrate, theta = mixed[0]
-lg = sa.logistic_summary(runs)
+lg = screening.logistic_summary(runs)
 lg["coef"].sel(shape=shape, substrate=substrate, incline_deg=theta).to_pandas().round(2)""",
     ),
     (
@@ -319,10 +320,10 @@ the robot, it must reproduce the closed-form indices of the Ishigami function:""
     ),
     (
         "code",
-        """d = sa.saltelli_design(2**11, 3, seed=1)
+        """d = sobol.saltelli_design(2**11, 3, seed=1)
 lo, hi = -np.pi, np.pi
 f = lambda U: ishigami(lo + (hi - lo) * U)
-idx = sa.sobol_indices(f(d.A), f(d.B), np.stack([f(ab) for ab in d.AB]), names=["x1", "x2", "x3"], n_boot=500)
+idx = sobol.sobol_indices(f(d.A), f(d.B), np.stack([f(ab) for ab in d.AB]), names=["x1", "x2", "x3"], n_boot=500)
 exact = ishigami_indices()
 for i, name in enumerate(["x1", "x2", "x3"]):
     print(f"{name}: S1 {float(idx.S1[i]):.3f} [{float(idx.S1_lower[i]):.3f}, {float(idx.S1_upper[i]):.3f}] exact {exact['S1'][i]:.3f};"
@@ -332,9 +333,9 @@ display(Image(filename=out / "sobol_ishigami.png", width=600))""",
     ),
     (
         "md",
-        """On the robot, `sa.robot_sobol(config, shape, substrate, incline_deg, n=64)` runs such a
+        """On the robot, `tumblemc.study.sobol.robot_sobol(config, shape, substrate, incline_deg, n=64)` runs such a
 design (`n (d + 2)` simulations, a few minutes for n = 64 and the four default
-uncertainties) and returns the indices of the progress ratio; `sa.sobol_rows` gives the
+uncertainties) and returns the indices of the progress ratio; `tumblemc.study.sobol.sobol_rows` gives the
 design alone, to run it on a cluster.
 
 ## 3. Where does it fail?
@@ -344,7 +345,7 @@ coverage (share of all failures inside) for density (share of runs inside that f
     ),
     (
         "code",
-        """box = sa.failure_region(runs, shape, substrate, theta)
+        """box = prim.failure_region(runs, shape, substrate, theta)
 print(f"{shape} on {substrate} at {theta} deg fails in {box.box}: coverage {box.coverage:.2f}, density {box.density:.2f}")
 plot_prim(box, out / "prim.png")
 display(Image(filename=out / "prim.png", width=600))""",

@@ -1,5 +1,12 @@
 """tumblemc: non-point-contact simulation and Monte Carlo robustness studies of tumbling
-magnetic microrobots (Xie, Bi, Cappelleri & Chakraborty, IDETC 2019)."""
+magnetic microrobots (Xie, Bi, Cappelleri & Chakraborty, IDETC 2019).
+
+The public API: :func:`simulate` and :func:`summarize` (one run), :func:`load_config`,
+:func:`run_study` and :func:`open_result` (studies), the shapes (:mod:`tumblemc.shapes`,
+an alias of :mod:`tumblemc.model.shapes`), :data:`PRESETS`, :class:`Params` and
+:class:`SolverOptions`. Layers, lowest first: ``kernels`` (Numba) <- ``model`` <- ``io``,
+``analysis`` <- ``study`` <- ``viz`` <- ``cli``.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +17,28 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.1.0.dev0"
 
-from .params import PRESETS, Params, SolverOptions
-from .simulate import simulate, summarize
+from tumblemc.io import open_result
+from tumblemc.model import shapes
+from tumblemc.model.outcome import summarize
+from tumblemc.model.params import PRESETS, Params, SolverOptions
+from tumblemc.model.run import simulate
+from tumblemc.model.shapes import SHAPES, Shape, extruded, get_shape
+from tumblemc.study.config import load_config
+from tumblemc.study.engine import run_study
 
-__all__ = ["PRESETS", "Params", "SolverOptions", "__version__", "simulate", "summarize"]
+__all__ = [
+    "PRESETS",
+    "SHAPES",
+    "Params",
+    "Shape",
+    "SolverOptions",
+    "__version__",
+    "extruded",
+    "get_shape",
+    "load_config",
+    "open_result",
+    "run_study",
+    "shapes",
+    "simulate",
+    "summarize",
+]

@@ -27,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
-from .params import Params
-from .simulate import TORQUE_OPTIONS
+from tumblemc import __version__
+from tumblemc.model.params import Params
+from tumblemc.model.run import TORQUE_OPTIONS
 
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1
@@ -225,7 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from .simulate import simulate, summarize
+    from tumblemc.model.outcome import summarize
+    from tumblemc.model.run import simulate
 
     overrides = parse_overrides(args.overrides)
     out = Path(args.out)
@@ -246,7 +247,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     safe.to_netcdf(out, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
     print(f"wrote {out}")
     if args.plot:
-        from .plotting import plot_run
+        from tumblemc.viz.run import plot_run
 
         png = out.with_suffix(".png")
         plot_run(ds, png)
@@ -266,21 +267,21 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .validation import run_validation
+    from tumblemc.claims import run_validation
 
     return int(run_validation(out_dir=args.out, quick=args.quick))
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .engine import local_client, run_study, study_status
+    from tumblemc.study.engine import local_client, run_study, study_status
 
     if args.study_command == "status":
         st = study_status(args.study, args.out)
         print(format_table(st))
         return EXIT_OK
     if args.study_command == "plot":
-        from .io import open_result
-        from .plotting_study import plot_study
+        from tumblemc.io import open_result
+        from tumblemc.viz.study import plot_study
 
         result = Path(args.result)
         runs, maps = open_result(result)
@@ -289,8 +290,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
             print(f"wrote {path}")
         return EXIT_OK
     if args.study_command == "compare":
-        from .critical import compare_with_grid
-        from .io import open_result
+        from tumblemc.analysis.critical import compare_with_grid
+        from tumblemc.io import open_result
 
         crit_runs, crit_maps = open_result(args.critical)
         _, grid_maps = open_result(args.grid)
@@ -334,7 +335,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
             client = Client(args.scheduler)
         else:
-            from .sampling import load_config
+            from tumblemc.study.config import load_config
 
             workers = args.workers if args.workers is not None else load_config(args.config).execution.workers
             if workers != 0:
@@ -354,7 +355,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     st = study_status(res.path)
     print(format_table(st))
     if args.plot:
-        from .plotting_study import plot_study
+        from tumblemc.viz.study import plot_study
 
         for path in plot_study(res.runs, res.maps, res.path.with_name(res.path.stem + "_plots")):
             print(f"wrote {path}")
@@ -362,7 +363,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_animate(args: argparse.Namespace) -> int:
-    from .animation import animate_result
+    from tumblemc.viz.animation import animate_result
 
     if args.max_frames < 2:
         raise _UsageError(f"--max-frames {args.max_frames} is not allowed (allowed: >= 2)")
@@ -375,7 +376,7 @@ def _cmd_animate(args: argparse.Namespace) -> int:
 
 
 def _cmd_shapes(args: argparse.Namespace) -> int:
-    from .plotting import plot_shapes
+    from tumblemc.viz.run import plot_shapes
 
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -385,7 +386,7 @@ def _cmd_shapes(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(rest: list[str]) -> int:
-    from .bench import main as bench_main
+    from tumblemc.stepcost import main as bench_main
 
     rc = bench_main(rest)
     return int(rc or 0)

@@ -18,15 +18,16 @@ import tempfile
 import time
 from collections.abc import Sequence
 
-from .kernels import layout as L
-from .shapes import SHAPES
-from .simulate import DEFAULT_DT, prepare, run_spec
+from tumblemc.kernels import layout as L
+from tumblemc.model.run import DEFAULT_DT, prepare, run_spec
+from tumblemc.model.shapes.library import SHAPES
 
 SCENARIOS = (
     ("paper 45 deg, 1 Hz", dict(preset="paper", incline_deg=45.0, freq_hz=1.0)),
     ("flat paper, 1 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=1.0)),
     ("flat paper, 10 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=10.0)),
 )
+
 
 _COMPILE_SNIPPET = "import time; t=time.perf_counter(); import tumblemc; tumblemc.simulate(duration_s=0.002); print(time.perf_counter()-t)"
 
@@ -86,7 +87,3 @@ def main(argv: Sequence[str] | None = None) -> int:
             warm = statistics.median(compile_time(d) for _ in range(3))
         print(f"compile + first run in a fresh process: cold cache {cold:.1f} s, cached {warm:.2f} s")
     return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

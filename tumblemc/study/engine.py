@@ -28,7 +28,6 @@ import json
 import math
 import os
 import signal
-import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -39,33 +38,15 @@ from typing import Any, NamedTuple
 import numpy as np
 import xarray as xr
 
-from . import __version__
-from .analysis import maps as make_maps
-from .batch import OUTCOMES, STATUS_FLAGS, TimeGrid, simulate_rows
-from .critical import CRITICAL_ATTRS, CRITICAL_OUTCOMES, bisect_rows, climbs_at, expand_to_grid, monotonicity_rows
-from .io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
-from .sampling import StudyConfig, batch_row, config_hash, config_to_json, design, load_config, sampled_name
-from .simulate import DEFAULT_DT
-
-OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
-    "progress_ratio": {"units": "1", "long_name": "mean uphill speed after the transient over the no-slip speed (hull perimeter x f)"},
-    "mean_speed": {"units": "m s-1", "long_name": "mean uphill speed after the transient"},
-    "progress": {"units": "m", "long_name": "uphill progress after the transient"},
-    "climbed": {
-        "units": "1",
-        "long_name": "run succeeded: status ok and progress_ratio >= success_ratio",
-        "flag_values": np.array([0, 1], dtype=np.int8),
-        "flag_meanings": "no yes",
-    },
-    "status": {"units": "1", "long_name": "run status", **STATUS_FLAGS},
-    "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step"},
-    "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total"},
-    "fallbacks": {"units": "1", "long_name": "damped or gradient Newton steps and extra solve strategies, total"},
-    "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
-    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol"},
-    "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
-    "error": {"long_name": "why the run could not start (empty when it ran)"},
-}
+from tumblemc.analysis.critical import expand_to_grid
+from tumblemc.analysis.maps import maps as make_maps
+from tumblemc.io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
+from tumblemc.model.rows import TimeGrid, simulate_rows
+from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES
+from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
+from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
+from tumblemc.study.critical import bisect_rows, monotonicity_rows
+from tumblemc.study.design import batch_row, check_inclines, check_subset, design, grid_of, sampled_name
 
 
 class StudyResult(NamedTuple):
@@ -134,19 +115,6 @@ def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     return task.kind, run, _critical_check(task)
 
 
-#: columns of a critical study's check task: dtype, width ("grid": one per check incline,
-#: "pair": the two inclines around the first failure) and the fill of a run that raised
-CHECK_COLUMNS: dict[str, tuple[type, str, float]] = {
-    "grid_climbed": (np.int8, "grid", 0),
-    "grid_status": (np.int8, "grid", 3),
-    "pair_incline": (np.float64, "pair", np.nan),
-    "pair_climbed": (np.int8, "pair", 0),
-    "pair_status": (np.int8, "pair", 3),
-    "pair_climbed_fine": (np.int8, "pair", 0),
-    "pair_status_fine": (np.int8, "pair", 3),
-}
-
-
 def _critical_check(task: Task) -> dict[str, np.ndarray]:
     """Check runs of a critical-incline study: verdicts at every grid incline (the
     monotonicity check) and, at the two grid inclines around the first failure, the
@@ -175,48 +143,11 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
     }
 
 
-# --------------------------------------------------------------------------- planning
-
-
-def _rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[dict[str, Any]]:
+def design_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[dict[str, Any]]:
     """:func:`tumblemc.sampling.batch_row` of runs ``idx`` (columns read once, not per run)."""
     names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
     cols = {k: des[k].values for k in names if k in des.variables}
     return [batch_row(cfg, {k: v[i] for k, v in cols.items()}) for i in idx]
-
-
-def study_dt(cfg: StudyConfig) -> float:
-    """The study's time step, s (the simulator default when the config leaves it out)."""
-    return float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
-
-
-def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
-    dt = study_dt(cfg)
-    if fine:
-        dt = dt / cfg.check.dt_factor
-    # a run with a failed step is invalid in a study (status failed_steps): stop it there
-    # instead of finishing it at the smallest sub-step
-    return TimeGrid(
-        periods=cfg.periods,
-        transient_periods=cfg.transient_periods,
-        dt=dt,
-        torque=cfg.torque,
-        success_ratio=cfg.success_ratio,
-        max_failed_steps=1,
-    )
-
-
-def check_inclines(cfg: StudyConfig) -> tuple[float, ...]:
-    """Grid inclines of a critical-incline study's monotonicity check, sorted: those of
-    ``incline_deg`` inside ``incline_range``."""
-    lo, hi = cfg.incline_range
-    return tuple(sorted(t for t in cfg.incline_deg if lo <= t <= hi))
-
-
-def check_subset(des: xr.Dataset) -> np.ndarray:
-    """Run indices re-simulated at the finer dt (the design's ``check`` flag: a fraction of
-    the runs, at least ``[check].min_runs``, chosen by a seeded hash of each run's key)."""
-    return np.flatnonzero(des["check_flag"].values).astype(np.int64)
 
 
 def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str) -> list[Task]:
@@ -236,7 +167,7 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
             stop += 1
         idx = todo[start:stop]
         key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
-        rows = tuple(_rows(cfg, des, idx))
+        rows = tuple(design_rows(cfg, des, idx))
         if cfg.mode == "grid":
             tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid))
         else:
@@ -259,9 +190,6 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
             )
         start = stop
     return tasks
-
-
-# --------------------------------------------------------------------------- execution
 
 
 class Progress:
@@ -323,15 +251,6 @@ def _execute(
     except BaseException:
         client.cancel([f for f in submitted if not f.done()])
         raise
-
-
-def git_sha() -> str:
-    """The git commit of the tumblemc source tree, or ``"unknown"``."""
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=5, check=True)
-        return out.stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
 
 
 def default_output(cfg: StudyConfig) -> Path:
@@ -445,200 +364,6 @@ def _n_workers(client: Any) -> int:
     return max(1, len(info().get("workers", {})))
 
 
-def provenance(cfg: StudyConfig, cjson: str, chash: str) -> dict[str, Any]:
-    """CF/ACDD global attributes and provenance of a study file."""
-    now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
-    return {
-        "Conventions": "CF-1.10, ACDD-1.3",
-        "title": f"tumblemc study {cfg.name}",
-        "summary": cfg.description or f"Monte Carlo robustness study {cfg.name}",
-        "source": f"tumblemc {__version__}",
-        "history": f"{now} tumblemc {__version__} run_study {cfg.name}",
-        "date_created": now,
-        "tumblemc_version": __version__,
-        "git_sha": git_sha(),
-        "study_name": cfg.name,
-        "config_json": cjson,
-        "config_hash": chash,
-        "seed": int(cfg.seed),
-        "success_ratio": float(cfg.success_ratio),
-        "uncertain": ",".join(cfg.uncertain_names),
-    }
-
-
-TIMESTAMP_ATTRS = ("history", "date_created")
-
-
-def _with_outcomes(des: xr.Dataset, main: dict[str, np.ndarray], columns: dict[str, type], attrs: dict[str, dict[str, Any]]) -> xr.Dataset:
-    """The design plus the outcome ``columns`` of every run (checked to be complete)."""
-    n = des.sizes["run"]
-    runs = des.copy()
-    if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
-        raise RuntimeError("internal error: the shards do not hold every run of the study")
-    for k, dtype in columns.items():
-        runs[k] = ("run", main[k].astype(dtype))
-        runs[k].attrs.update(attrs[k])
-    runs["error"] = ("run", main["error"].astype(str))
-    runs["error"].attrs.update(OUTCOME_ATTRS["error"])
-    return runs
-
-
-def _check_pos(check: dict[str, np.ndarray], check_idx: np.ndarray) -> np.ndarray:
-    """Positions of the check runs ``check_idx`` in the (sorted) check shards."""
-    pos = np.searchsorted(check["run"], check_idx)
-    if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
-        raise RuntimeError("internal error: the shards do not hold every check run of the study")
-    return pos
-
-
-def assemble_runs(
-    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
-) -> xr.Dataset:
-    """The ``runs`` group: the design plus every run's outcome and the check subset."""
-    runs = _with_outcomes(des, main, OUTCOMES, OUTCOME_ATTRS)
-    runs["climbed"].attrs["ancillary_variables"] = "status progress_ratio"
-    runs["progress_ratio"].attrs["ancillary_variables"] = "status"
-    if len(check_idx):
-        pos = _check_pos(check, check_idx)
-        fine_ratio = check["progress_ratio"][pos]
-        fine_climbed = check["climbed"][pos].astype(np.int8)
-        runs["check_run"] = ("check", check_idx)
-        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a run re-simulated at dt / check_dt_factor"})
-        runs["check_progress_ratio_fine"] = ("check", fine_ratio)
-        runs["check_progress_ratio_fine"].attrs.update({"units": "1", "long_name": "progress ratio of the re-simulation at the finer dt"})
-        runs["check_climbed_fine"] = ("check", fine_climbed)
-        runs["check_climbed_fine"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdict of the re-simulation at the finer dt",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "no yes",
-            }
-        )
-        runs["check_status_fine"] = ("check", check["status"][pos].astype(np.int8))
-        runs["check_status_fine"].attrs.update({"units": "1", "long_name": "status of the re-simulation at the finer dt", **STATUS_FLAGS})
-        compared = (check["status"][pos] == 0) & (runs["status"].values[check_idx] == 0)
-        agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
-        runs["check_agree"] = ("check", agree)
-        runs["check_agree"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdict at the study dt equals the verdict at the finer dt (compared only where both runs are valid)",
-                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                "flag_meanings": "not_compared no yes",
-            }
-        )
-        d = np.abs(fine_ratio - runs["progress_ratio"].values[check_idx])
-        runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
-        runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
-        runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
-        runs.attrs["check_max_abs_ratio_diff"] = float(np.nanmax(d)) if np.isfinite(d).any() else math.nan
-        runs = runs.assign_coords(check=np.arange(len(check_idx)))
-        runs["check"].attrs.update({"units": "1", "long_name": "index of a numerical-check run"})
-    if "run" in runs.coords:
-        runs["run"].attrs.update({"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"})
-    runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
-    runs.attrs["dt"] = study_dt(cfg)
-    return runs
-
-
-def assemble_critical(
-    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
-) -> xr.Dataset:
-    """The ``runs`` group of a critical-incline study: the design, each sample's critical
-    incline, and the monotonicity and numerical checks of the check subset."""
-    n = des.sizes["run"]
-    runs = _with_outcomes(des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
-    runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
-    runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
-    lo, hi = cfg.incline_range
-    th = np.array(check_inclines(cfg))
-    runs.attrs.update(
-        {
-            "mode": cfg.mode,
-            "incline_range_min": lo,
-            "incline_range_max": hi,
-            "incline_tol": cfg.incline_tol,
-            "check_dt_factor": float(cfg.check.dt_factor),
-        }
-    )
-    runs.attrs["dt"] = study_dt(cfg)
-    if len(check_idx):
-        pos = _check_pos(check, check_idx)
-        g = check["grid_climbed"][pos].astype(np.int8)
-        gs = check["grid_status"][pos].astype(np.int8)
-        pred = climbs_at(runs["critical_incline_deg"].values[check_idx], th)
-        ok = (gs == 0) & (runs["status"].values[check_idx] == 0)[:, None]
-        dis = (g != pred) & ok
-        # a verdict sequence along the incline is monotone if it never climbs after a failure
-        nonmono = np.array([bool(np.any(np.diff(row[okr].astype(int)) > 0)) for row, okr in zip(g, ok, strict=True)])
-        runs = runs.assign_coords(check=np.arange(len(check_idx)), check_incline_deg=th)
-        runs["check"].attrs.update({"units": "1", "long_name": "index of a check run"})
-        runs["check_incline_deg"].attrs.update({"units": "degree", "long_name": "grid incline of the monotonicity check"})
-        runs["check_run"] = ("check", check_idx)
-        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a checked sample"})
-        runs["check_grid_climbed"] = (("check", "check_incline_deg"), g)
-        runs["check_grid_climbed"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdict of a direct simulation at the grid incline",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "no yes",
-            }
-        )
-        runs["check_grid_status"] = (("check", "check_incline_deg"), gs)
-        runs["check_grid_status"].attrs.update(
-            {"units": "1", "long_name": "status of the direct simulation at the grid incline", **STATUS_FLAGS}
-        )
-        runs["check_disagree"] = (("check", "check_incline_deg"), dis.astype(np.int8))
-        runs["check_disagree"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "direct verdict differs from incline <= critical_incline_deg",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "agree disagree",
-            }
-        )
-        runs["check_nonmonotone"] = ("check", nonmono.astype(np.int8))
-        runs["check_nonmonotone"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "sample climbs a grid incline steeper than one it fails",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "monotone nonmonotone",
-            }
-        )
-        pc, pf = check["pair_climbed"][pos].astype(np.int8), check["pair_climbed_fine"][pos].astype(np.int8)
-        compared = np.all((check["pair_status_fine"][pos] == 0) & (check["pair_status"][pos] == 0), axis=1)
-        agree = np.where(compared, np.all(pc == pf, axis=1).astype(np.int8), -1).astype(np.int8)
-        runs["check_agree"] = ("check", agree)
-        runs["check_agree"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor (compared only where all four runs are valid)",
-                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                "flag_meanings": "not_compared no yes",
-            }
-        )
-        runs["check_climbed_fine"] = (("check", "pair"), pf)
-        runs["check_climbed_fine"].attrs.update(
-            {"units": "1", "long_name": "verdicts at dt / check_dt_factor at the inclines check_pair_incline_deg"}
-        )
-        runs["check_pair_incline_deg"] = (("check", "pair"), check["pair_incline"][pos])
-        runs["check_pair_incline_deg"].attrs.update(
-            {"units": "degree", "long_name": "last climbing and first failing grid incline of the direct simulation"}
-        )
-        n_ok = int(ok.sum())
-        runs.attrs["monotonicity_disagreement_rate"] = float(dis.sum() / n_ok) if n_ok else math.nan
-        runs.attrs["monotonicity_nonmonotone_samples"] = int(nonmono.sum())
-        runs.attrs["monotonicity_checked_samples"] = len(check_idx)
-        runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
-        runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
-    runs.attrs["simulations_total"] = int(runs["n_simulations"].sum())
-    runs.attrs["simulations_grid_equivalent"] = int(n * len(th))
-    return runs
-
-
 def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """How far a study got: from its config (and the default or given result path) or from
     a result file. Keys: ``state`` ("not started", "partial", "complete"), ``done``,
@@ -685,9 +410,6 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
     if "check_run" in runs:
         out["check_total"] = out["check_done"] = int(runs.sizes["check"])
     return out
-
-
-__all__ = ["StudyResult", "Task", "check_subset", "execute_task", "plan", "run_study", "study_status"]
 
 
 def warm_kernels() -> float:

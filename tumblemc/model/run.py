@@ -2,74 +2,35 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from . import __version__
-from .kernels import layout as L
-from .kernels.newton import Workspace, make_workspace
-from .kernels.residual import n_unknowns
-from .kernels.stepper import Geometry, empty_record, n_records, run
-from .params import Params, SolverOptions, get_preset
-from .results import annotate
-from .shapes import Shape, get_shape
-from .units import LENGTH_M, Units
+from tumblemc import __version__
+from tumblemc.kernels import layout as L
+from tumblemc.kernels.newton import Workspace, make_workspace
+from tumblemc.kernels.residual import n_unknowns
+from tumblemc.kernels.stepper import Geometry, empty_record, n_records, run
+from tumblemc.model.frames import plane_frame, rot_to_quat
+from tumblemc.model.params import Params, SolverOptions, get_preset
+from tumblemc.model.shapes.library import get_shape
+from tumblemc.model.shapes.types import Shape
+from tumblemc.model.units import LENGTH_M, Units
+from tumblemc.schema import annotate
 
 #: default time step, s: the largest dt of the convergence study (docs/validation) whose
 #: verdicts match the finest dt (1.25e-5 s) in every case and whose progress ratios are
 #: within 2% of it in every climbing case, with the torque at the start of the step
 #: (aluminum 20 deg binds: 0.895 at 1e-4 against 0.876).
 DEFAULT_DT = 5e-5
+
+
 TORQUE_OPTIONS = ("start", "end")
+
+
 MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
-
-
-def plane_frame(incline_deg: float) -> dict[str, np.ndarray]:
-    """Plane normal ``n``, contact tangents ``t``, ``o`` and uphill direction ``u``."""
-    th = math.radians(incline_deg)
-    s, c = math.sin(th), math.cos(th)
-    return {
-        "n": np.array([0.0, s, c]),
-        "t": np.array([1.0, 0.0, 0.0]),
-        "o": np.array([0.0, c, -s]),
-        "u": np.array([0.0, -c, s]),
-    }
-
-
-def rot_to_quat(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion (scalar first) of a rotation matrix."""
-    tr = np.trace(R)
-    if tr > 0:
-        s = math.sqrt(tr + 1.0) * 2
-        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2
-        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
-    elif R[1, 1] > R[2, 2]:
-        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2
-        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
-    else:
-        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
-        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
-    qa = np.array(q)
-    return qa / np.linalg.norm(qa)
-
-
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices of quaternions ``q[..., 4]`` (scalar first)."""
-    w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
-    return np.stack(
-        [
-            np.stack([w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-            np.stack([2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)], -1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z], -1),
-        ],
-        -2,
-    )
 
 
 @dataclass
@@ -122,7 +83,7 @@ def prepare(
     **overrides: Any,
 ) -> RunSpec:
     """Validate the inputs of :func:`simulate` and build the scaled kernel data."""
-    from .params import _check_number
+    from tumblemc.model.params import check_number
 
     if not isinstance(shape, (str, Shape)):
         raise ValueError(f"shape={shape!r} is not allowed (allowed: a shape name or a tumblemc.shapes.Shape)")
@@ -130,13 +91,13 @@ def prepare(
         raise ValueError(f"preset={preset!r} is not allowed (allowed: a preset name or a tumblemc.params.Params)")
     shp = get_shape(shape)
     params = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
-    incline_deg = _check_number("incline_deg", incline_deg, "", -89.0, 89.0)
-    field_mT = _check_number("field_mT", field_mT, "", 0.0, 10_000.0)
-    freq_hz = _check_number("freq_hz", freq_hz, "", 0.0, 10_000.0)
-    duration_s = _check_number("duration_s", duration_s, "", 0.0, 1e4)
-    dt = DEFAULT_DT if dt is None else _check_number("dt", dt, "", 1e-9, 1e-1)
+    incline_deg = check_number("incline_deg", incline_deg, "", -89.0, 89.0)
+    field_mT = check_number("field_mT", field_mT, "", 0.0, 10_000.0)
+    freq_hz = check_number("freq_hz", freq_hz, "", 0.0, 10_000.0)
+    duration_s = check_number("duration_s", duration_s, "", 0.0, 1e4)
+    dt = DEFAULT_DT if dt is None else check_number("dt", dt, "", 1e-9, 1e-1)
     torque = _check_choice("torque", torque, TORQUE_OPTIONS)
-    if isinstance(record_every, bool) or not float(_check_number("record_every", record_every, "", 1, 1e9)).is_integer():
+    if isinstance(record_every, bool) or not float(check_number("record_every", record_every, "", 1, 1e9)).is_integer():
         raise ValueError(f"record_every={record_every!r} is not allowed (allowed: an integer >= 1)")
     record_every = int(record_every)
     solver = solver or SolverOptions()
@@ -177,7 +138,7 @@ def prepare(
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
     state0 = np.zeros(13)
-    lift_m = _check_number("lift_m", lift_m, "", 0.0, 1.0)
+    lift_m = check_number("lift_m", lift_m, "", 0.0, 1.0)
     state0[0:3] = (shp.rest_height() + lift_m) / LENGTH_M * fr["n"]
     state0[3:7] = rot_to_quat(R0)
     for name, vec in (("v0", v0), ("omega0", omega0)):
@@ -382,62 +343,3 @@ def simulate(
     )
     rec, status, failed = run_spec(spec)
     return to_dataset(spec, rec, status, failed)
-
-
-def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float = 0.5, min_window_periods: float = 1.0) -> dict[str, Any]:
-    """Summary of a run measured after the transient.
-
-    Speeds and progress are measured over ``[transient_periods / f, t_end]`` (with phi > 0
-    the robot first tips backwards, so the start depends on the initial field phase).
-
-    Returns
-    -------
-    dict
-        ``mean_speed`` (uphill, m/s), ``ideal_speed`` (hull perimeter x f, m/s),
-        ``progress_ratio``, ``climbed`` (``progress_ratio >= threshold``),
-        ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
-        between the solver's ``tol`` and ``accept_tol``), ``mean_newton_iterations``,
-        ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
-        ``status`` (0: ok; otherwise the run stopped early, speed and ratio are NaN and
-        ``climbed`` is False).
-    """
-    from .params import _check_number
-
-    transient_periods = _check_number("transient_periods", transient_periods, "", 0.0, 1e6)
-    threshold = _check_number("threshold", threshold, "", -1e6, 1e6)
-    min_window_periods = _check_number("min_window_periods", min_window_periods, "", 0.0, 1e6)
-    f = float(ds.attrs["freq_hz"])
-    if not f > 0:
-        raise ValueError("summarize needs a rotating field (freq_hz > 0)")
-    t = ds["time"].values
-    t0 = transient_periods / f
-    window = t[-1] - t0
-    if window < min_window_periods / f - 1e-9:
-        raise ValueError(
-            f"run too short: duration {t[-1]:.6g} s leaves {window:.6g} s after the transient of "
-            f"{t0:.6g} s (allowed: at least {min_window_periods} field period(s) = {min_window_periods / f:.6g} s)"
-        )
-    i0 = int(np.searchsorted(t, t0 - 1e-9 * float(ds.attrs["dt"])))
-    prog = ds["progress"].values
-    dur = t[-1] - t[i0]
-    mean_speed = (prog[-1] - prog[i0]) / dur
-    ideal = float(ds.attrs["ideal_speed"])
-    ratio = mean_speed / ideal
-    status = int(ds.attrs["status"])
-    if status != 0:  # the run stopped early (non-finite state): no verdict
-        mean_speed = ratio = math.nan
-    n_steps = max(int(ds.attrs["n_steps"]), 1)
-    return {
-        "mean_speed": float(mean_speed),
-        "ideal_speed": ideal,
-        "progress_ratio": float(ratio),
-        "climbed": bool(ratio >= threshold),
-        "max_penetration": float(ds["penetration"].max()),
-        "failed_steps": int(ds.attrs["failed_steps"]),
-        "loose_steps": int(ds["loose"].sum()) if "loose" in ds else 0,
-        "mean_newton_iterations": float(ds["newton_iterations"].sum()) / n_steps,
-        "mean_slip_speed": float(ds["slip_speed"].values[i0:].mean()),
-        "substeps": int(ds["substeps"].sum()),
-        "fallbacks": int(ds["fallbacks"].sum()),
-        "status": status,
-    }

@@ -16,33 +16,15 @@ from typing import Any
 
 import numpy as np
 
-from .kernels import batch as KB
-from .kernels.newton import make_workspace
-from .kernels.residual import n_unknowns
-from .kernels.stepper import empty_record
-from .params import SolverOptions
-from .shapes import Shape, get_shape
-from .simulate import RunSpec, initial_contact, prepare
-
-#: outcome columns of :func:`simulate_rows`, with their dtypes
-OUTCOMES: dict[str, type] = {
-    "progress_ratio": np.float64,
-    "mean_speed": np.float64,
-    "progress": np.float64,
-    "climbed": np.int8,
-    "status": np.int8,
-    "newton_iterations": np.float64,
-    "substeps": np.int64,
-    "fallbacks": np.int64,
-    "failed_steps": np.int64,
-    "loose_steps": np.int64,
-    "max_penetration": np.float64,
-}
-
-STATUS_FLAGS = {
-    "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR], dtype=np.int8),
-    "flag_meanings": "ok failed_steps nonfinite error",
-}
+from tumblemc.kernels import batch as KB
+from tumblemc.kernels.newton import make_workspace
+from tumblemc.kernels.residual import n_unknowns
+from tumblemc.kernels.stepper import empty_record
+from tumblemc.model.params import SolverOptions
+from tumblemc.model.run import RunSpec, initial_contact, prepare
+from tumblemc.model.shapes.library import get_shape
+from tumblemc.model.shapes.types import Shape
+from tumblemc.schema import OUTCOMES
 
 
 @dataclass(frozen=True)
@@ -153,6 +135,3 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
             res["loose_steps"][i] = int(o[KB.B_LOOSE])
     res["error"] = errors
     return res
-
-
-__all__ = ["OUTCOMES", "STATUS_FLAGS", "TimeGrid", "simulate_rows"]

@@ -34,30 +34,51 @@ from matplotlib.patches import FancyArrowPatch, Polygon
 from matplotlib.ticker import FuncFormatter
 from PIL import Image
 
-from .params import magnetisation_dir
-from .plotting import MODE_LABELS, UM, _run_label, _shape_of, side_view_outline
-from .shapes import Shape
-from .simulate import plane_frame, quat_to_matrix
+from tumblemc.model.frames import plane_frame, quat_to_matrix
+from tumblemc.model.params import magnetisation_dir
+from tumblemc.model.shapes.types import Shape
+from tumblemc.viz.run import MODE_LABELS, UM, run_label, shape_of, side_view_outline
 
 #: output formats by suffix
 SUFFIXES = (".gif", ".mp4")
+
+
 #: GIF frame delays are whole centiseconds and viewers slow delays under 20 ms down to
 #: 100 ms, so a GIF never runs faster than this many frames per second
 GIF_MAX_FPS = 50.0
+
+
 #: travel (m) above which lengths along the plane are written in mm instead of µm
 MM_ABOVE_M = 20e-3
+
+
 #: largest offset of the window's centre from the centre of mass, in window widths
 DEAD_ZONE = 0.15
+
+
 #: lowest point of the body above the plane, in body diameters, to call it "in flight"
 FLIGHT_GAP = 2e-3
+
+
 #: most points of the centre-of-mass trail
 TRAIL_POINTS = 5000
 
+
 _BODY_FACE = "#b8cde0"
+
+
 _FIELD_COLOR = "C2"
+
+
 _MAG_COLOR = "C4"
+
+
 _MODE_COLORS = ("0.45", "C1", "C3")  # none, point/line, face
+
+
 _FIG_SIZE_IN = (8.0, 6.0)
+
+
 _TAG_BOX = {"boxstyle": "round,pad=0.1", "facecolor": "white", "edgecolor": "none", "alpha": 0.75}
 
 
@@ -198,7 +219,7 @@ class _Scene:
         self.canvas = FigureCanvasAgg(fig)
         self.fig = fig
         self._background: Any = None
-        fig.text(0.5, 0.988, _run_label(ds), ha="center", va="top", fontsize=9, color="0.25")
+        fig.text(0.5, 0.988, run_label(ds), ha="center", va="top", fontsize=9, color="0.25")
         row1, row2 = 0.935, 0.897
         self.txt_time = fig.text(0.09, row1, "", ha="left", va="center", fontsize=10.5)
         self.txt_prog = fig.text(0.96, row1, "", ha="right", va="center", fontsize=10.5, weight="bold")
@@ -466,7 +487,7 @@ def animate_run(
     cap = GIF_MAX_FPS if suffix == ".gif" else math.inf
     count, rate, _ = _timing(t, float(fps), speed, int(max_frames), cap)
     idx = _frame_indices(t, count)
-    scene = _Scene(ds, _frames_data(ds, _shape_of(ds, shape), idx), trail, dpi)
+    scene = _Scene(ds, _frames_data(ds, shape_of(ds, shape), idx), trail, dpi)
     try:
         if suffix == ".gif":
             _write_gif(scene, len(idx), rate, out)
@@ -534,11 +555,8 @@ def render_frame(
     if not -n <= i < n:
         raise IndexError(f"i={i} is out of range for a run of {n} records")
     idx = np.array([i % n])
-    scene = _Scene(ds, _frames_data(ds, _shape_of(ds, shape), idx), trail, dpi)
+    scene = _Scene(ds, _frames_data(ds, shape_of(ds, shape), idx), trail, dpi)
     scene.update(0)
     if path is not None:
         scene.fig.savefig(path, dpi=dpi)
     return scene.fig
-
-
-__all__ = ["animate_result", "animate_run", "render_frame"]

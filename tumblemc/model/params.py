@@ -33,11 +33,14 @@ from typing import Any
 
 import numpy as np
 
+_INF = math.inf
 _POSITIVE = "> 0"
+
+
 _NONNEG = ">= 0"
 
 
-def _check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: float | None = None) -> float:
+def check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: float | None = None) -> float:
     """Validate a scalar: finite float satisfying ``rule``; raise ValueError naming it."""
     if isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{name}={value!r} is not a number (allowed: a finite value {rule})")
@@ -110,7 +113,7 @@ class Params:
             "g": (_POSITIVE, None, None),
         }
         for name, (rule, lo, hi) in checks.items():
-            object.__setattr__(self, name, _check_number(name, getattr(self, name), rule, lo, hi))
+            object.__setattr__(self, name, check_number(name, getattr(self, name), rule, lo, hi))
         axis = self.offset_axis
         try:
             a = np.asarray(axis, dtype=float).reshape(3)
@@ -190,22 +193,22 @@ class SolverOptions:
     accept_tol: float = 1e-6
 
     def __post_init__(self) -> None:
-        _check_number("tol", self.tol, _POSITIVE)
+        check_number("tol", self.tol, _POSITIVE)
         for name in ("max_iter", "max_substep_depth", "max_failed_steps"):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
                 raise ValueError(f"{name}={v!r} is not allowed (allowed: an integer)")
-        _check_number("max_iter", self.max_iter, "", 1, 10_000)
-        _check_number("max_substep_depth", self.max_substep_depth, "", 0, 30)
-        _check_number("armijo", self.armijo, "", 1e-12, 0.5)
-        _check_number("min_step", self.min_step, "", 1e-16, 0.5)
-        _check_number("max_failed_steps", self.max_failed_steps, "", 0, 1e12)
-        _check_number("accept_tol", self.accept_tol, "", 0.0, 1.0)
+        check_number("max_iter", self.max_iter, "", 1, 10_000)
+        check_number("max_substep_depth", self.max_substep_depth, "", 0, 30)
+        check_number("armijo", self.armijo, "", 1e-12, 0.5)
+        check_number("min_step", self.min_step, "", 1e-16, 0.5)
+        check_number("max_failed_steps", self.max_failed_steps, "", 0, 1e12)
+        check_number("accept_tol", self.accept_tol, "", 0.0, 1.0)
         if 0.0 < self.accept_tol < self.tol:
             raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
     def as_array(self) -> np.ndarray:
-        from .kernels import layout as L
+        from tumblemc.kernels import layout as L
 
         a = np.zeros(L.N_OPT)
         a[L.O_TOL] = self.tol
@@ -218,4 +221,56 @@ class SolverOptions:
         return a
 
 
-__all__ = ["PRESETS", "Params", "SolverOptions", "get_preset"]
+
+
+
+
+
+
+@dataclass(frozen=True)
+class PhysicalRange:
+    """Allowed values of an uncertain parameter (``lo_open``: ``lo`` itself excluded)."""
+
+    lo: float
+    hi: float
+    lo_open: bool
+    hi_open: bool
+    units: str
+    long_name: str
+
+    def describe(self) -> str:
+        return describe_interval(self.lo, self.hi, self.lo_open, self.hi_open)
+
+    def contains(self, x: float) -> bool:
+        above = x > self.lo if self.lo_open else x >= self.lo
+        below = x < self.hi if self.hi_open else x <= self.hi
+        return above and below
+
+
+#: physical range, units and description of each parameter that may be uncertain; the
+#: order is part of the ``mc`` sampler's scheme (append only)
+PHYSICAL_RANGE: dict[str, PhysicalRange] = {
+    "mass": PhysicalRange(0.0, _INF, True, True, "kg", "robot mass"),
+    "F_elect": PhysicalRange(0.0, _INF, False, True, "N", "electrostatic force"),
+    "mu": PhysicalRange(0.0, _INF, False, True, "1", "friction coefficient"),
+    "offset_deg": PhysicalRange(-180.0, 180.0, False, False, "degree", "magnetisation offset angle"),
+    "V_m": PhysicalRange(0.0, _INF, False, True, "m^3", "magnetic volume"),
+    "magnetization": PhysicalRange(0.0, _INF, False, True, "A/m", "magnetisation"),
+    "adhesion_C": PhysicalRange(0.0, _INF, False, True, "N/m^2", "adhesion per contact area"),
+    "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact"),
+    "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t"),
+    "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o"),
+    "e_r": PhysicalRange(0.0, _INF, True, True, "m", "friction ellipsoid e_r"),
+    "g": PhysicalRange(0.0, _INF, True, True, "m/s^2", "gravity"),
+    "field_mT": PhysicalRange(0.0, 10_000.0, True, False, "mT", "rotating field magnitude"),
+}
+
+
+def describe_interval(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> str:
+    if math.isinf(lo) and math.isinf(hi):
+        return "a finite number"
+    if math.isinf(hi):
+        return f"a number {'>' if lo_open else '>='} {lo:g}"
+    if math.isinf(lo):
+        return f"a number {'<' if hi_open else '<='} {hi:g}"
+    return f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"

@@ -23,15 +23,20 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from .shapes import Shape, get_shape
-from .simulate import plane_frame, quat_to_matrix
+from tumblemc.model.frames import plane_frame, quat_to_matrix
+from tumblemc.model.shapes.library import get_shape
+from tumblemc.model.shapes.types import Shape
 
 UM = 1e6  # metres -> micrometres
+
+
 UN = 1e6  # newtons -> micronewtons
+
+
 MODE_LABELS = ("none", "point/line", "face")
 
 
-def _shape_of(ds: xr.Dataset, shape: str | Shape | None) -> Shape:
+def shape_of(ds: xr.Dataset, shape: str | Shape | None) -> Shape:
     return get_shape(ds.attrs.get("shape", "cuboid") if shape is None else shape)
 
 
@@ -50,7 +55,7 @@ def side_view_outline(ds: xr.Dataset, shape: str | Shape | None, i: int) -> tupl
     (s, h) : arrays, m. ``s`` is the uphill coordinate along the plane measured from the
         centre of mass at ``time[0]``; ``h`` the height above the plane (0 on the plane).
     """
-    shp = _shape_of(ds, shape)
+    shp = shape_of(ds, shape)
     fr = plane_frame(float(ds.attrs.get("incline_deg", 0.0)))
     outline = np.asarray(shp.outline, dtype=float)
     body = np.column_stack([np.zeros(len(outline)), outline[:, 0], outline[:, 1]])
@@ -62,7 +67,7 @@ def side_view_outline(ds: xr.Dataset, shape: str | Shape | None, i: int) -> tupl
     return s, h
 
 
-def _run_label(ds: xr.Dataset) -> str:
+def run_label(ds: xr.Dataset) -> str:
     a = ds.attrs
     parts = [f"{a.get('shape', '?')} robot"]
     if "mu" in a:
@@ -80,7 +85,7 @@ def _run_label(ds: xr.Dataset) -> str:
 
 
 def _summary_label(ds: xr.Dataset) -> str:
-    from .simulate import summarize
+    from tumblemc.model.outcome import summarize
 
     try:
         sm = summarize(ds)
@@ -145,7 +150,7 @@ def _snapshot_indices(n: int, count: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, min(count, n))).astype(int))
 
 
-def _strip_offsets(outlines: list[tuple[np.ndarray, np.ndarray]], length: float) -> tuple[np.ndarray, str, float]:
+def strip_offsets(outlines: list[tuple[np.ndarray, np.ndarray]], length: float) -> tuple[np.ndarray, str, float]:
     """Horizontal shifts (m) of the snapshots of the side-view strip, and the layout used.
 
     ``"true"``: no shift needed, the outlines do not overlap at their true positions.
@@ -183,10 +188,10 @@ def _strip_data(ds: xr.Dataset, shape: str | Shape | None, count: int) -> dict[s
     """Outlines (µm, spread along s), centre-of-mass and contact points of the strip."""
     t = ds["time"].values
     idx = _snapshot_indices(len(t), count)
-    shp = _shape_of(ds, shape)  # built once, not per snapshot
+    shp = shape_of(ds, shape)  # built once, not per snapshot
     outlines = [side_view_outline(ds, shp, int(i)) for i in idx]
     length = float(np.ptp(np.asarray(shp.outline)[:, 0]))
-    offsets, layout, extra = _strip_offsets(outlines, length)
+    offsets, layout, extra = strip_offsets(outlines, length)
     size = max([float(np.ptp(s)) for s, _ in outlines] + [length])
     fr = plane_frame(float(ds.attrs.get("incline_deg", 0.0)))
     pos = ds["position"].values
@@ -282,13 +287,10 @@ def plot_run(
     _panel_progress(ax_a, ds)
     _panel_contact(ax_b, ds)
     _panel_strip(ax_c, ds, strip)
-    fig.suptitle(f"{_run_label(ds)}\n{_summary_label(ds)}", fontsize=10)
+    fig.suptitle(f"{run_label(ds)}\n{_summary_label(ds)}", fontsize=10)
     if path is not None:
         fig.savefig(path, dpi=dpi)
     return fig
-
-
-__all__ = ["plot_run", "side_view_outline"]
 
 
 def plot_shapes(
@@ -319,7 +321,7 @@ def plot_shapes(
     matplotlib.figure.Figure
         A figure not registered with pyplot (nothing global to close).
     """
-    from .shapes import SHAPES
+    from tumblemc.model.shapes.library import SHAPES
 
     names = list(SHAPES) if shapes is None else list(shapes)
     if not names:
@@ -371,6 +373,3 @@ def plot_shapes(
     if path is not None:
         fig.savefig(path, dpi=dpi)
     return fig
-
-
-__all__ += ["plot_shapes"]

@@ -28,18 +28,9 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from .analysis import SWEEP_DIMS, check_summary, proportion_ci, sort_runs
-from .sensitivity import PrimResult, _parameters, _valid, cell_mask
-
-CMAP = "viridis"
-DPI = 150
-SWEEP_LABELS = {"field_mT": ("B", "mT"), "freq_hz": ("f", "Hz")}
-_GOLDEN = 0.6180339887498949  # low-discrepancy strip offsets: deterministic, no RNG
-
-
-def _save(fig: Figure, path: str | os.PathLike[str] | None) -> None:
-    if path is not None:
-        fig.savefig(path, dpi=DPI, bbox_inches="tight")
+from tumblemc.analysis.maps import check_summary, sort_runs
+from tumblemc.schema import SWEEP_DIMS
+from tumblemc.viz.style import CMAP, GOLDEN, SWEEP_LABELS, save_figure
 
 
 def _sweep_rows(ds: xr.Dataset, dims: Sequence[str]) -> list[dict[str, Any]]:
@@ -62,7 +53,7 @@ def _substrates(available: np.ndarray, substrate: str | Sequence[str] | None) ->
     return wanted
 
 
-def _panel_grid(nrows: int, ncols: int, panel_w: float, panel_h: float) -> tuple[Figure, np.ndarray]:
+def panel_grid(nrows: int, ncols: int, panel_w: float, panel_h: float) -> tuple[Figure, np.ndarray]:
     fig = Figure(figsize=(panel_w * ncols + 1.2, panel_h * nrows + 0.6), layout="constrained")
     axes = np.asarray(fig.subplots(nrows, ncols, squeeze=False))
     return fig, axes
@@ -102,7 +93,7 @@ def plot_success_heatmap(
     shapes = [str(s) for s in maps["shape"].values]
     incl = maps["incline_deg"].values
     nx, ny = incl.size, len(shapes)
-    fig, axes = _panel_grid(len(rows), len(subs), max(3.2, 0.85 * nx + 1.0), max(2.0, 0.65 * ny + 1.0))
+    fig, axes = panel_grid(len(rows), len(subs), max(3.2, 0.85 * nx + 1.0), max(2.0, 0.65 * ny + 1.0))
     norm = Normalize(0.0, 1.0)
     fontsize = 7.0 if nx <= 8 else 5.5
     mesh = None
@@ -146,7 +137,7 @@ def plot_success_heatmap(
         method = maps["p_success_lower"].attrs.get("ci_method", "?")
         level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
         cb.set_label(f"P(success)  (cells: p [{level:.0%} {method} CI])", fontsize=8)
-    _save(fig, path)
+    save_figure(fig, path)
     return fig
 
 
@@ -168,7 +159,7 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
     rows = _sweep_rows(maps, _map_dims(maps))
     shapes = [str(s) for s in maps["shape"].values]
     x = maps["incline_deg"].values.astype(np.float64)
-    fig, axes = _panel_grid(len(rows), len(subs), 4.0, 2.8)
+    fig, axes = panel_grid(len(rows), len(subs), 4.0, 2.8)
     for r, row in enumerate(rows):
         for c, sub in enumerate(subs):
             ax = axes[r, c]
@@ -188,7 +179,7 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
     level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
     method = maps["p_success_lower"].attrs.get("ci_method", "?")
     fig.suptitle(f"success probability of valid runs; bands: {level:.0%} {method} confidence interval", fontsize=9)
-    _save(fig, path)
+    save_figure(fig, path)
     return fig
 
 
@@ -217,7 +208,7 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
     incl = np.unique(runs["incline_deg"].values)
     ns = len(shapes)
     width = 0.8 / ns
-    fig, axes = _panel_grid(len(rows), len(subs), max(4.0, 0.6 * incl.size * max(ns, 2) / 2 + 1.5), 3.0)
+    fig, axes = panel_grid(len(rows), len(subs), max(4.0, 0.6 * incl.size * max(ns, 2) / 2 + 1.5), 3.0)
     shape_v = runs["shape"].values.astype(str)
     sub_v = runs["substrate"].values.astype(str)
     inc_v = runs["incline_deg"].values
@@ -242,11 +233,11 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
                     for part in ("whiskers", "caps", "medians"):
                         for ln in bp[part]:
                             ln.set(color=colour, lw=0.9)
-                    jit = ((np.arange(y.size) * _GOLDEN) % 1.0 - 0.5) * 0.6 * width
+                    jit = ((np.arange(y.size) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
                     ax.plot(xc + jit, y, ".", color=colour, ms=2.5, alpha=0.7)
                 nbad = int(np.count_nonzero(cell & bad))
                 if nbad:
-                    jit_bad = ((np.arange(nbad) * _GOLDEN) % 1.0 - 0.5) * 0.6 * width
+                    jit_bad = ((np.arange(nbad) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
                     ax.plot(xc + jit_bad, np.full(nbad, 0.045), "x", color="red", ms=4, mew=1.0, transform=ax.get_xaxis_transform())
             ax.axhline(thr, color="k", ls="--", lw=1.0)
             if np.any(in_row & (sub_v == sub) & bad):
@@ -263,7 +254,7 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
     handles.append(Line2D([], [], color="k", ls="--", label=f"success threshold {thr:g}"))
     handles.append(Line2D([], [], color="red", marker="x", ls="", label="not valid (status != 0)"))
     fig.legend(handles=handles, loc="outside upper center", ncol=len(handles), fontsize=7, frameon=False)
-    _save(fig, path)
+    save_figure(fig, path)
     return fig
 
 
@@ -321,7 +312,7 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     for name, fig in figures:
         if note:
             fig.text(0.01, 0.0, note, ha="left", va="top", fontsize=7, color="0.25")
-        _save(fig, out / name)
+        save_figure(fig, out / name)
         paths.append(out / name)
     return paths
 
@@ -351,213 +342,7 @@ def plot_critical_distribution(runs: xr.Dataset, path: str | os.PathLike[str] | 
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
     if path is not None:
-        _save(fig, Path(path))
-    return fig
-
-
-# ------------------------------------------------------------------ sensitivity figures
-
-
-def plot_sobol(indices: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Bars of first-order and total Sobol indices with their confidence intervals.
-
-    Parameters
-    ----------
-    indices : Dataset from :func:`tumblemc.sensitivity.sobol_indices`.
-    path : file to save the figure to; None saves nothing.
-
-    Returns
-    -------
-    Figure
-        Per parameter, ``S1`` and ``ST`` side by side; error bars span the bootstrap
-        interval (``*_lower`` to ``*_upper``); the gap ``ST - S1`` is the share of
-        variance from interactions.
-    """
-    names = [str(p) for p in indices["parameter"].values]
-    x = np.arange(len(names), dtype=np.float64)
-    fig = Figure(figsize=(max(3.5, 0.9 * len(names) + 1.5), 3.2), layout="constrained")
-    ax = fig.add_subplot()
-    width = 0.38
-    for k, (key, label) in enumerate((("S1", "first order $S_1$"), ("ST", "total $S_T$"))):
-        v = indices[key].values.astype(np.float64)
-        lo = indices[f"{key}_lower"].values.astype(np.float64)
-        hi = indices[f"{key}_upper"].values.astype(np.float64)
-        err = np.vstack([np.clip(v - lo, 0.0, None), np.clip(hi - v, 0.0, None)])
-        err = np.where(np.isfinite(err), err, 0.0)
-        xs = x + (k - 0.5) * width
-        ax.bar(xs, v, width, color=f"C{k}", alpha=0.8, label=label)
-        ax.errorbar(xs, v, yerr=err, fmt="none", ecolor="k", elinewidth=1.0, capsize=3)
-    ax.axhline(0.0, color="k", lw=0.6)
-    ax.set_xticks(x, names)
-    ax.set_ylabel("Sobol index")
-    ax.grid(True, axis="y", alpha=0.3)
-    ax.legend(fontsize=8, frameon=False)
-    level = float(indices.attrs.get("confidence_level", float("nan")))
-    n = indices.attrs.get("n_used", "?")
-    dropped = int(indices.attrs.get("n_dropped", 0))
-    note = f"N = {n} base rows" + (f" ({dropped} dropped: non-finite output)" if dropped else "")
-    ax.set_title(f"Sobol indices; bars: {level:.0%} bootstrap interval; {note}", fontsize=8)
-    _save(fig, path)
-    return fig
-
-
-def plot_success_vs_parameter(
-    runs: xr.Dataset,
-    shape: str,
-    substrate: str,
-    incline_deg: float | None = None,
-    path: str | os.PathLike[str] | None = None,
-    *,
-    outcome: str = "progress_ratio",
-    bins: int = 8,
-    level: float = 0.95,
-    method: str = "wilson",
-    field_mT: float | None = None,
-    freq_hz: float | None = None,
-) -> Figure:
-    """Outcome and success fraction against each uncertain parameter of a cell.
-
-    Parameters
-    ----------
-    runs : study Dataset.
-    shape, substrate : the cell.
-    incline_deg : one incline (degree), or None for every incline of the shape and
-        substrate (a colour per incline).
-    path : file to save the figure to; None saves nothing.
-    outcome : per-run variable scattered on the left axis.
-    bins : equal-count bins of the parameter for the success curve.
-    level, method : interval of the success fraction per bin
-        (:func:`tumblemc.analysis.proportion_ci`).
-    field_mT, freq_hz : the field setting, needed when the study sweeps it.
-
-    Returns
-    -------
-    Figure
-        A panel per uncertain parameter. Dots: ``outcome`` of each valid run (left axis;
-        dashed: the success threshold when the outcome is the progress ratio). Line and
-        band (right axis): fraction of valid runs that climbed per bin, at the bin's
-        median parameter, with its confidence interval. Red crosses on the bottom edge:
-        runs that are not valid.
-    """
-    if bins < 1:
-        raise ValueError(f"bins must be >= 1, got {bins!r}")
-    params = _parameters(runs, None)
-    names = [p for p, _ in params]
-    mask = cell_mask(runs, shape, substrate, incline_deg, field_mT=field_mT, freq_hz=freq_hz)
-    inclines = np.unique(np.asarray(runs["incline_deg"].values, dtype=np.float64)[mask])
-    valid = _valid(runs)
-    y_all = np.asarray(runs[outcome].values, dtype=np.float64)
-    climbed = np.asarray(runs["climbed"].values) == 1
-    inc_all = np.asarray(runs["incline_deg"].values, dtype=np.float64)
-    thr = float(runs.attrs.get("success_ratio", 0.5))
-    ncols = min(len(names), 3)
-    nrows = -(-len(names) // ncols)
-    fig, axes = _panel_grid(nrows, ncols, 3.6, 2.8)
-    for ax in axes.ravel()[len(names) :]:
-        ax.set_visible(False)
-    for p, (name, var) in enumerate(params):
-        ax = axes.ravel()[p]
-        x_all = np.asarray(runs[var].values, dtype=np.float64)
-        right = ax.twinx()
-        for k, inc in enumerate(inclines):
-            colour = f"C{k % 10}"
-            sel = mask & (inc_all == inc)
-            good = sel & valid & np.isfinite(x_all)
-            ok = good & np.isfinite(y_all)
-            ax.plot(x_all[ok], y_all[ok], ".", color=colour, ms=3, alpha=0.45)
-            bad = sel & ~valid & np.isfinite(x_all)
-            if np.any(bad):
-                ax.plot(x_all[bad], np.full(int(np.count_nonzero(bad)), 0.03), "x", color="red", ms=4, transform=ax.get_xaxis_transform())
-            xs = x_all[good]
-            if xs.size == 0:
-                continue
-            edges = np.unique(np.quantile(xs, np.linspace(0.0, 1.0, bins + 1)))
-            which = np.clip(np.searchsorted(edges, xs, side="right") - 1, 0, max(edges.size - 2, 0))
-            nb = max(edges.size - 1, 1)
-            n = np.bincount(which, minlength=nb)
-            s = np.bincount(which, weights=climbed[good].astype(np.float64), minlength=nb).astype(np.int64)
-            keep = n > 0
-            centre = np.array([np.median(xs[which == b]) for b in np.flatnonzero(keep)])
-            lo, hi = proportion_ci(s[keep], n[keep], level, method)
-            right.fill_between(centre, lo, hi, color=colour, alpha=0.18, lw=0)
-            right.plot(centre, s[keep] / n[keep], "o-", color=colour, ms=3.5, lw=1.3, label=f"{inc:g} deg")
-        if outcome == "progress_ratio":
-            ax.axhline(thr, color="k", ls="--", lw=0.8)
-        right.set_ylim(-0.03, 1.03)
-        units = str(runs[var].attrs.get("units", ""))
-        ax.set_xlabel(f"{name} ({units})" if units else name)
-        if p % ncols == 0:
-            ax.set_ylabel(outcome.replace("_", " "))
-        if p % ncols == ncols - 1 or p == len(names) - 1:
-            right.set_ylabel("fraction climbed")
-        ax.grid(True, alpha=0.3)
-        if p == 0 and inclines.size > 1:
-            right.legend(fontsize=7, frameon=False, title="incline", title_fontsize=7)
-    where = f"{shape} on {substrate}" + (f", incline {float(incline_deg):g} deg" if incline_deg is not None else "")
-    fig.suptitle(f"{where}: dots {outcome} of valid runs; lines fraction climbed per bin ({level:.0%} {method} band)", fontsize=9)
-    _save(fig, path)
-    return fig
-
-
-def plot_prim(trajectory: xr.Dataset | PrimResult, path: str | os.PathLike[str] | None = None) -> Figure:
-    """PRIM peeling trade-off: density against coverage, the chosen box marked.
-
-    Parameters
-    ----------
-    trajectory : the ``trajectory`` Dataset of a :class:`~tumblemc.sensitivity.PrimResult`
-        (or the result itself).
-    path : file to save the figure to; None saves nothing.
-
-    Returns
-    -------
-    Figure
-        One point per peeling step coloured by support (fraction of all points in the
-        box); the star is the chosen box (``attrs["chosen_step"]``), annotated with its
-        bounds; the dotted line is the density of the whole sample.
-    """
-    traj = trajectory.trajectory if isinstance(trajectory, PrimResult) else trajectory
-    cov = traj["coverage"].values.astype(np.float64)
-    den = traj["density"].values.astype(np.float64)
-    sup = traj["support"].values.astype(np.float64)
-    k = int(traj.attrs.get("chosen_step", int(np.argmax(den))))
-    fig = Figure(figsize=(5.2, 3.8), layout="constrained")
-    ax = fig.add_subplot()
-    ax.plot(cov, den, "-", color="0.6", lw=0.8)
-    sc = ax.scatter(cov, den, c=sup, cmap=CMAP, norm=Normalize(0.0, 1.0), s=18, zorder=3)
-    ax.plot(cov[k], den[k], "*", color="red", ms=14, mec="k", zorder=4, label=f"chosen box (step {k})")
-    ax.axhline(den[0], color="k", ls=":", lw=0.8, label=f"base density {den[0]:.3f}")
-    lines = []
-    names = [str(p) for p in traj["parameter"].values]
-    for j, name in enumerate(names):
-        lo, hi = float(traj["lower"].values[k, j]), float(traj["upper"].values[k, j])
-        if np.isfinite(lo) or np.isfinite(hi):
-            lines.append(
-                f"{lo:.4g} < {name} < {hi:.4g}"
-                if np.isfinite(lo) and np.isfinite(hi)
-                else (f"{name} > {lo:.4g}" if np.isfinite(lo) else f"{name} < {hi:.4g}")
-            )
-    lines.append(f"coverage {cov[k]:.3f}, density {den[k]:.3f}, support {sup[k]:.3f}")
-    ax.annotate(
-        "\n".join(lines),
-        (cov[k], den[k]),
-        xytext=(0.03, 0.04),
-        textcoords="axes fraction",
-        fontsize=7,
-        va="bottom",
-        ha="left",
-        bbox={"boxstyle": "round", "fc": "w", "ec": "0.7", "alpha": 0.9},
-        arrowprops={"arrowstyle": "->", "color": "0.4", "lw": 0.8},
-    )
-    ax.set_xlim(-0.02, 1.02)
-    ax.set_ylim(min(0.0, float(np.min(den))) - 0.02, 1.02)
-    ax.set_xlabel("coverage (fraction of targets inside the box)")
-    ax.set_ylabel("density (fraction of the box that are targets)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7, frameon=True, framealpha=0.9, loc="center left")
-    fig.colorbar(sc, ax=ax, label="support")
-    target = traj.attrs.get("target", "target")
-    ax.set_title(f"PRIM peeling; targets: {target}", fontsize=9)
-    _save(fig, path)
+        save_figure(fig, Path(path))
     return fig
 
 

@@ -1,251 +1,30 @@
-"""Robot shapes as data: unions of convex pieces, each an intersection of smooth convex
-constraints in body coordinates, with the adhering area of each face.
-
-Body frame: x = width or thickness (the rotation axis of tumbling), y = length,
-z = height, origin at the centre of mass. The robot starts lying with body +z along -n,
-pointing into the plane (MODEL.md, "Frames and state"). All lengths in metres.
-
-Contact with a plane only touches a piece's convex hull, so a piece is its hull; each hull
-constraint carries the area of real material that touches the plane when that face alone
-is down, and whether that contact is a line contact (a curved face, or a hull face that
-only bridges edges of the body).
-
-Every shape of the library is one piece, a profile in the body y-z plane extruded along x
-(:func:`extruded`). Rule for the adhering area of a hull face (MODEL.md, "Shapes"):
-
-- a hull face that coincides with real flat faces of the profile adheres with the real
-  part: ``overlap length x thickness``, ``line=False``;
-- a hull face that only bridges (touches the real profile at vertices only) is a line
-  contact, ``line=True``, with the nominal area ``hull edge length x thickness``;
-- a convex outward arc on the hull is a ``cylinder_x`` constraint, ``line=True``, with its
-  real area ``arc length x thickness``;
-- the two thickness faces ``+-x`` are real: the profile's area, ``line=False``.
-
-The time-stepper uses ``line_contact_fraction x area`` for a line contact (and for two or
-more faces touching at once, the smallest of their areas), so the nominal area of a
-bridging face only enters scaled by that fraction.
-"""
+"""TODO docstring (split from tumblemc/shapes.py)."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
-from .kernels import layout as L
-from .kernels.stepper import Geometry
-from .units import LENGTH_M
-
-KINDS = {"plane": L.C_PLANE, "cylinder_x": L.C_CYL_X}
-#: how ``Shape.inertia_per_mass`` was obtained
-MASS_MODELS = ("profile", "aluminum_robot")
-#: allowed range of every dimension (m): anything outside is a unit mistake
-MIN_DIM_M, MAX_DIM_M = 1e-6, 1e-1
-#: default sampling sagitta of curved hull faces for the kernel's support points, m
-ARC_TOL_M = 1e-8
-#: angular step of arcs in the plotted outline
-OUTLINE_STEP_RAD = math.radians(1.0)
-#: most vertices of a profile (its checks compare all pairs of edges)
-MAX_VERTICES = 2000
-#: geometric tolerance of the hull construction, relative to the profile's size
-REL_TOL = 1e-9
-#: the aluminum robot (MODEL.md, Table 3): the paper's cuboid, 0.8 x 0.4 x 0.1 mm (L x W x H)
-ALUMINUM_ROBOT_LWH_M = (800e-6, 400e-6, 100e-6)
-#: body directions by which hull faces are grouped and ordered (the cuboid's order)
-_GROUPS = (("+y", (1.0, 0.0)), ("-y", (-1.0, 0.0)), ("+z", (0.0, 1.0)), ("-z", (0.0, -1.0)))
-
-
-@dataclass(frozen=True)
-class Constraint:
-    """One smooth convex constraint ``f(y) <= 0`` of a piece (SI).
-
-    kind : ``"plane"`` with ``data = (nx, ny, nz, d)``, ``f = n.y - d`` (|n| = 1, d in m),
-        or ``"cylinder_x"`` with ``data = (cy, cz, R, 0)`` (m): a cylinder along body x.
-    area : adhering area (m^2) when this face alone touches the plane.
-    line : True if this face alone touching the plane is line contact.
-    label : a name for plots and docs.
-    """
-
-    kind: str
-    data: tuple[float, float, float, float]
-    area: float
-    line: bool = False
-    label: str = ""
-
-    def value(self, p: np.ndarray) -> np.ndarray:
-        """``f`` at body points ``p`` (..., 3), m."""
-        p = np.asarray(p, dtype=float)
-        d = self.data
-        if self.kind == "plane":
-            return p[..., 0] * d[0] + p[..., 1] * d[1] + p[..., 2] * d[2] - d[3]
-        return np.hypot(p[..., 1] - d[0], p[..., 2] - d[1]) - d[2]
-
-
-@dataclass(frozen=True)
-class Piece:
-    """A convex piece: its constraints and points bounding it from below.
-
-    support_points : (P, 3) array, m. For a polytope, its vertices (``support_pad = 0``);
-        for curved faces, sampled points with ``support_pad`` >= the sampling sagitta, so
-        that ``min_p n.p - pad`` never overestimates the piece's lowest point.
-    """
-
-    constraints: tuple[Constraint, ...]
-    support_points: np.ndarray
-    support_pad: float = 0.0
-
-
-@dataclass(frozen=True)
-class Shape:
-    """A robot shape.
-
-    name : identifier used by ``simulate(shape=...)``.
-    pieces : convex pieces (each with its own contact block in the time-stepper).
-    outline : (N, 2) closed polygon of the body outline in the y-z plane, m (plots).
-    thickness : extent along x, m.
-    hull_perimeter : perimeter of the convex hull of the y-z profile, m; the no-slip
-        distance per field revolution.
-    inertia_per_mass : 3x3 body inertia about the CM divided by the mass, m^2.
-    mass_model : how ``inertia_per_mass`` was obtained: ``"profile"`` (uniform density
-        over the extruded profile) or ``"aluminum_robot"`` (the 0.8 x 0.4 x 0.1 mm cuboid
-        of the aluminum robot, MODEL.md: non-cuboid shapes keep its inertia).
-    profile_area : area of the real y-z profile, m^2.
-    cm_shift : (y, z) of the profile's area centroid in the coordinates the profile was
-        given in, m: the body frame is the given one shifted by ``-cm_shift``.
-    """
-
-    name: str
-    pieces: tuple[Piece, ...]
-    outline: np.ndarray
-    thickness: float
-    hull_perimeter: float
-    inertia_per_mass: np.ndarray
-    mass_model: str = "profile"
-    profile_area: float = math.nan
-    cm_shift: tuple[float, float] = (0.0, 0.0)
-
-    def inertia(self, mass: float) -> np.ndarray:
-        """Body-frame inertia about the CM, kg m^2."""
-        return mass * self.inertia_per_mass
-
-    def mass(self, density: float) -> float:
-        """Mass (kg) of the extruded profile at uniform ``density`` (kg/m^3):
-        ``density x profile_area x thickness``. The simulated mass comes from the Params
-        preset; this helps choose it for a new shape."""
-        if (
-            isinstance(density, bool)
-            or not isinstance(density, (int, float, np.integer, np.floating))
-            or not (math.isfinite(density) and density > 0)
-        ):
-            raise ValueError(f"density={density!r} is not allowed (allowed: a finite value > 0, kg/m^3)")
-        if not math.isfinite(self.profile_area):
-            raise ValueError(f"shape {self.name!r} has no profile_area, so its mass cannot be computed")
-        return float(density) * self.profile_area * self.thickness
-
-    def rest_height(self) -> float:
-        """CM height above the plane when lying with body +z along -n (MODEL.md): the
-        exact largest body z of the pieces (support points, and the top of any
-        ``cylinder_x`` face whose top lies on the piece)."""
-        return max(_piece_top(p) for p in self.pieces)
-
-    def rest_face_area(self, line_contact_fraction: float) -> float:
-        """Adhering area (m^2) in the initial pose, lying with body +z along -n, with the
-        time-stepper's rule: the faces of the lowest piece(s) whose outward normal is body
-        +z at the rest height (one flat face: its area; one line face or several:
-        ``line_contact_fraction`` x the smallest); if none (the piece stands on an edge
-        along x), the constraints active on that edge, as line contact."""
-        h = self.rest_height()
-        total = 0.0
-        for p in self.pieces:
-            top = _piece_top(p)
-            if top < h - 1e-12:
-                continue
-            down = [c for c in p.constraints if _touches_top(c, p, top)]
-            if len(down) == 1 and not down[0].line:
-                total += down[0].area
-            elif down:
-                total += line_contact_fraction * min(c.area for c in down)
-            else:
-                pts = p.support_points[p.support_points[:, 2] >= top - 1e-12]
-                centre = pts.mean(axis=0)
-                active = [c for c in p.constraints if abs(float(c.value(centre))) <= 1e-12]
-                if active:
-                    total += line_contact_fraction * min(c.area for c in active)
-        return total
-
-    def hull_faces(self) -> list[tuple[Constraint, np.ndarray]]:
-        """Each hull face of the y-z profile (constraints not normal to x) with its (K, 2)
-        polyline in the body y-z plane, m: the two end points of a flat face, the sampled
-        points of a curved one (for plots)."""
-        out = []
-        for p in self.pieces:
-            pts = p.support_points
-            top = pts[pts[:, 0] >= pts[:, 0].max() - 1e-12]
-            size = float(np.ptp(top[:, 1:], axis=0).max())
-            for c in p.constraints:
-                if c.kind == "plane" and abs(c.data[0]) > 0.5:
-                    continue
-                on = top[np.abs(c.value(top)) <= REL_TOL * size + p.support_pad]
-                yz = on[:, 1:]
-                if len(yz) < 2:
-                    continue
-                if c.kind == "plane":
-                    t = np.array([-c.data[2], c.data[1]])
-                    s = yz @ t
-                    yz = yz[[int(np.argmin(s)), int(np.argmax(s))]]
-                else:  # by angle about the axis, measured from the middle direction
-                    rel = yz - np.array(c.data[:2])
-                    mid = rel.mean(axis=0)
-                    yz = yz[np.argsort(np.arctan2(_cross(mid, rel), rel @ mid))]
-                out.append((c, yz))
-        return out
-
-    def geometry(self) -> Geometry:
-        """Kernel arrays in scaled units (length unit ``tumblemc.units.LENGTH_M``)."""
-        cons = [c for p in self.pieces for c in p.constraints]
-        ctype = np.array([KINDS[c.kind] for c in cons], dtype=np.int64)
-        cdata = np.zeros((len(cons), 4))
-        for i, c in enumerate(cons):
-            d = np.asarray(c.data, dtype=float)
-            if c.kind == "plane":
-                cdata[i] = [d[0], d[1], d[2], d[3] / LENGTH_M]
-            else:
-                cdata[i] = [d[0] / LENGTH_M, d[1] / LENGTH_M, d[2] / LENGTH_M, 0.0]
-        carea = np.array([c.area for c in cons]) / LENGTH_M**2
-        cline = np.array([int(c.line) for c in cons], dtype=np.int64)
-        pstart = np.cumsum([0] + [len(p.constraints) for p in self.pieces]).astype(np.int64)
-        sup_pts = np.concatenate([p.support_points for p in self.pieces]) / LENGTH_M
-        sup_start = np.cumsum([0] + [len(p.support_points) for p in self.pieces]).astype(np.int64)
-        sup_pad = np.array([p.support_pad for p in self.pieces]) / LENGTH_M
-        return Geometry(ctype, cdata, carea, cline, pstart, np.ascontiguousarray(sup_pts), sup_start, sup_pad)
-
-
-def _piece_top(p: Piece) -> float:
-    """Exact largest body z of a piece: its support points, or a cylinder's top on it."""
-    top = float(np.max(p.support_points[:, 2]))
-    for c in p.constraints:
-        if c.kind == "cylinder_x":
-            apex = np.array([0.0, c.data[0], c.data[1] + c.data[2]])
-            if all(float(o.value(apex)) <= 1e-12 for o in p.constraints if o is not c):
-                top = max(top, float(apex[2]))
-    return top
-
-
-def _touches_top(c: Constraint, p: Piece, top: float) -> bool:
-    """Whether face ``c`` of piece ``p`` has outward normal +z where it reaches ``top``."""
-    if c.kind == "plane":
-        return abs(c.data[2] - 1.0) < 1e-9 and abs(c.data[3] - top) < 1e-12
-    apex = np.array([0.0, c.data[0], c.data[1] + c.data[2]])
-    return abs(float(apex[2]) - top) < 1e-12 and all(float(o.value(apex)) <= 1e-12 for o in p.constraints if o is not c)
-
-
-# ---------------------------------------------------------------------------------------
-# profile geometry: validation, arcs, exact area moments, convex hull
-# ---------------------------------------------------------------------------------------
+from tumblemc.model.shapes.types import (
+    _GROUPS,
+    ALUMINUM_ROBOT_LWH_M,
+    ARC_TOL_M,
+    MASS_MODELS,
+    MAX_DIM_M,
+    MAX_VERTICES,
+    MIN_DIM_M,
+    OUTLINE_STEP_RAD,
+    REL_TOL,
+    Constraint,
+    Piece,
+    Shape,
+    cross2,
+)
 
 
 @dataclass(frozen=True)
@@ -280,7 +59,7 @@ def _dim_error(arg: str, what: str | None, value: float) -> ValueError:
     return ValueError(f"{name} is outside {MIN_DIM_M:g}..{MAX_DIM_M:g} m ({hint})")
 
 
-def _check_dim(arg: str, value: Any) -> float:
+def check_dim(arg: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(float(value)):
         raise ValueError(f"{arg}={value!r} is not allowed (allowed: a finite length in metres, {MIN_DIM_M:g}..{MAX_DIM_M:g})")
     x = float(value)
@@ -288,9 +67,6 @@ def _check_dim(arg: str, value: Any) -> float:
         raise _dim_error(arg, None, x)
     return x
 
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def _check_profile(profile: Any) -> np.ndarray:
@@ -330,7 +106,7 @@ def _check_profile(profile: Any) -> np.ndarray:
             f"profile is self-intersecting: edges {i} ({v[i].tolist()} to {v[(i + 1) % len(v)].tolist()}) and {j} "
             f"({v[j].tolist()} to {v[(j + 1) % len(v)].tolist()}) cross or touch (allowed: a simple polygon)"
         )
-    area = 0.5 * math.fsum(_cross(v, np.roll(v, -1, axis=0)))
+    area = 0.5 * math.fsum(cross2(v, np.roll(v, -1, axis=0)))
     if abs(area) <= REL_TOL * size**2:
         raise ValueError(f"profile has (near-)zero area {area!r} m^2 (allowed: a simple polygon enclosing an area)")
     return v
@@ -345,7 +121,7 @@ def _self_intersection(p: np.ndarray) -> tuple[int, int] | None:
     eps = REL_TOL * size**2
     # neighbours: a fold-back (angle 0) makes them overlap
     d0, d1 = b - a, np.roll(b - a, -1, axis=0)
-    fold = (np.abs(_cross(d0, d1)) <= REL_TOL * np.hypot(*d0.T) * np.hypot(*d1.T)) & (np.einsum("ij,ij->i", d0, d1) < 0)
+    fold = (np.abs(cross2(d0, d1)) <= REL_TOL * np.hypot(*d0.T) * np.hypot(*d1.T)) & (np.einsum("ij,ij->i", d0, d1) < 0)
     if np.any(fold):
         first = int(np.argmax(fold))
         return first, (first + 1) % n
@@ -353,8 +129,8 @@ def _self_intersection(p: np.ndarray) -> tuple[int, int] | None:
     keep = ~((i == 0) & (j == n - 1))
     i, j = i[keep], j[keep]
     p1, p2, q1, q2 = a[i], b[i], a[j], b[j]
-    o1, o2 = _cross(p2 - p1, q1 - p1), _cross(p2 - p1, q2 - p1)
-    o3, o4 = _cross(q2 - q1, p1 - q1), _cross(q2 - q1, p2 - q1)
+    o1, o2 = cross2(p2 - p1, q1 - p1), cross2(p2 - p1, q2 - p1)
+    o3, o4 = cross2(q2 - q1, p1 - q1), cross2(q2 - q1, p2 - q1)
     proper = (o1 * o2 < 0) & (o3 * o4 < 0)
 
     def on_seg(s0: np.ndarray, s1: np.ndarray, q: np.ndarray, o: np.ndarray) -> np.ndarray:
@@ -381,7 +157,7 @@ def _make_arc(a: np.ndarray, b: np.ndarray, radius: float) -> _Arc:
     centre = 0.5 * (a + b) - mid * r * math.cos(beta)
     thm = math.atan2(mid[1], mid[0])
     # a lies at thm + delta with delta = +-beta
-    delta = beta if _cross(mid, a - centre) > 0 else -beta
+    delta = beta if cross2(mid, a - centre) > 0 else -beta
     return _Arc(centre, r, sign, thm + delta, thm - delta, beta, mid)
 
 
@@ -498,7 +274,7 @@ def _hull(points: np.ndarray) -> np.ndarray:
 
     def turn_ok(o: int, a: int, b: int) -> bool:
         da, db = points[a] - points[o], points[b] - points[a]
-        return bool(_cross(da, db) > REL_TOL * math.hypot(*da) * math.hypot(*db))
+        return bool(cross2(da, db) > REL_TOL * math.hypot(*da) * math.hypot(*db))
 
     def chain(idx: np.ndarray) -> list[int]:
         out: list[int] = []
@@ -609,13 +385,13 @@ def _face_order(faces: list[_HullFace]) -> list[tuple[str, _HullFace]]:
     return [(_GROUPS[g][0], f) for g, _, f in keyed]
 
 
-def _cuboid_ipm(length: float, width: float, height: float) -> np.ndarray:
+def cuboid_inertia(length: float, width: float, height: float) -> np.ndarray:
     """Inertia per mass of a uniform cuboid about its centre (body axes x = W, y = L, z = H)."""
     return np.diag([length**2 + height**2, width**2 + height**2, width**2 + length**2]) / 12.0
 
 
 def _aluminum_robot_ipm() -> np.ndarray:
-    return _cuboid_ipm(*ALUMINUM_ROBOT_LWH_M)
+    return cuboid_inertia(*ALUMINUM_ROBOT_LWH_M)
 
 
 def extruded(
@@ -698,11 +474,11 @@ def extruded(
     ):
         raise ValueError(f"arc_tol={arc_tol!r} is not allowed (allowed: a finite sagitta in metres, 0 < arc_tol <= 1e-6)")
     v = _check_profile(profile)
-    thick = _check_dim("thickness", thickness)
+    thick = check_dim("thickness", thickness)
     radii = _check_arcs(arcs, v)
     n = len(v)
     user_edge = {k: k for k in range(n)}  # edge index here -> as given (for messages)
-    if 0.5 * math.fsum(_cross(v, np.roll(v, -1, axis=0))) < 0:  # make it CCW, vertex 0 first
+    if 0.5 * math.fsum(cross2(v, np.roll(v, -1, axis=0))) < 0:  # make it CCW, vertex 0 first
         v = np.roll(v[::-1], 1, axis=0)
         radii = {n - 1 - k: r for k, r in radii.items()}
         user_edge = {n - 1 - k: k for k in range(n)}
@@ -796,184 +572,3 @@ def extruded(
     perimeter = math.fsum(f.length for f in faces)
     piece = Piece(tuple(cons), np.ascontiguousarray(pts3), pad)
     return Shape(name, (piece,), outline, thick, perimeter, ipm, mass_from, area, (float(cm[0]), float(cm[1])))
-
-
-def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6) -> Shape:
-    """The paper's cuboid robot (MODEL.md "Shapes"): L (y) x W (x) x H (z), in m.
-
-    One piece with six half-spaces, all real faces: the big faces ``+-z`` adhere with
-    ``L W``, the sides ``+-x`` with ``L H``, the ends ``+-y`` with ``W H``. Written out in
-    closed form (``extruded`` of its rectangle gives the same constraints, areas and
-    inertia; the tests check that).
-    """
-    for nm, v in (("length", length), ("width", width), ("height", height)):
-        if not (np.isfinite(v) and 1e-6 <= v <= 1e-1):
-            raise ValueError(f"{nm}={v!r} is out of range (allowed: 1e-6 to 1e-1 m; give SI metres)")
-    hx, hy, hz = width / 2, length / 2, height / 2
-    cons = (
-        Constraint("plane", (1.0, 0.0, 0.0, hx), length * height, label="+x side"),
-        Constraint("plane", (-1.0, 0.0, 0.0, hx), length * height, label="-x side"),
-        Constraint("plane", (0.0, 1.0, 0.0, hy), width * height, label="+y end"),
-        Constraint("plane", (0.0, -1.0, 0.0, hy), width * height, label="-y end"),
-        Constraint("plane", (0.0, 0.0, 1.0, hz), length * width, label="+z face"),
-        Constraint("plane", (0.0, 0.0, -1.0, hz), length * width, label="-z face"),
-    )
-    verts = np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    outline = np.array([[-hy, -hz], [hy, -hz], [hy, hz], [-hy, hz], [-hy, -hz]])
-    ipm = _cuboid_ipm(length, width, height)
-    return Shape("cuboid", (Piece(cons, verts),), outline, width, 2 * (length + height), ipm, "profile", length * height)
-
-
-def _relabel(shape: Shape, labels: dict[str, str]) -> Shape:
-    """Replace generic face labels of a one-piece shape by descriptive ones."""
-    (piece,) = shape.pieces
-    cons = tuple(replace(c, label=labels.get(c.label, c.label)) for c in piece.constraints)
-    return replace(shape, pieces=(replace(piece, constraints=cons),))
-
-
-def spiked(
-    length: float = 800e-6,
-    bar_height: float = 150e-6,
-    spike_base: float = 200e-6,
-    apex_z: float = 325e-6,
-    thickness: float = 300e-6,
-    *,
-    mass_from: str = "aluminum_robot",
-) -> Shape:
-    """Spiked robot (MODEL.md "Shapes"): a bar ``length x bar_height`` with one triangular
-    spike on each long side at mid-length (base ``spike_base``, apex at ``z = +-apex_z``),
-    extruded by ``thickness`` (m). Inertia: see ``mass_from`` in :func:`extruded` (default:
-    the aluminum robot's, as in the paper).
-
-    Hull faces (defaults; normals in body (y, z); areas in um^2):
-
-    ==========================  ===================  ========  ====================
-    face                        outward normal       area      contact
-    ==========================  ===================  ========  ====================
-    +x side, -x side            (+-1 along x)        170000    real profile
-    +y end, -y end              (+-1, 0)             45000     real, 150 x 300
-    +z flank +y, +z flank -y    (+-0.530, 0.848)     141510    line: end corner to apex
-    -z flank +y, -z flank -y    (+-0.530, -0.848)    141510    line: end corner to apex
-    ==========================  ===================  ========  ====================
-
-    Hull perimeter 2186.8 um. The robot starts standing on its +z spike apex.
-    """
-    for nm, val in (("length", length), ("bar_height", bar_height), ("spike_base", spike_base), ("apex_z", apex_z)):
-        _check_dim(nm, val)
-    if not spike_base < length:
-        raise ValueError(f"spike_base={spike_base!r} is not allowed (allowed: < length = {length!r} m)")
-    if not apex_z > bar_height / 2:
-        raise ValueError(f"apex_z={apex_z!r} is not allowed (allowed: > bar_height / 2 = {bar_height / 2!r} m)")
-    hy, hz, hb = length / 2, bar_height / 2, spike_base / 2
-    prof = [(-hy, -hz), (-hb, -hz), (0.0, -apex_z), (hb, -hz), (hy, -hz), (hy, hz), (hb, hz), (0.0, apex_z), (-hb, hz), (-hy, hz)]
-    shp = extruded(prof, thickness, name="spiked", mass_from=mass_from)
-    labels = {"+y face": "+y end", "-y face": "-y end", "+z bridge #1": "+z flank +y", "+z bridge #2": "+z flank -y"}
-    labels |= {"-z bridge #1": "-z flank -y", "-z bridge #2": "-z flank +y"}
-    return _relabel(shp, labels)
-
-
-def spiked_ends(
-    length: float = 800e-6,
-    bar_height: float = 150e-6,
-    spike_base: float = 100e-6,
-    spike_height: float = 125e-6,
-    thickness: float = 300e-6,
-    *,
-    mass_from: str = "aluminum_robot",
-) -> Shape:
-    """Spiked-ends robot (MODEL.md "Shapes"): a bar ``length x bar_height`` with four
-    triangular corner spikes (base ``spike_base`` flush with each end, height
-    ``spike_height``, apex above the middle of the base), extruded by ``thickness`` (m).
-    Inertia: see ``mass_from`` in :func:`extruded` (default: the aluminum robot's).
-
-    Hull faces (defaults; normals in body (y, z); areas in um^2):
-
-    ========================  =====================  ========  =========================
-    face                      outward normal         area      contact
-    ========================  =====================  ========  =========================
-    +x side, -x side          (+-1 along x)          145000    real profile
-    +y end, -y end            (+-1, 0)               45000     real, 150 x 300
-    four spike flanks         (+-0.928, +-0.371)     40389     real, 134.6 x 300
-    +z bridge, -z bridge      (0, +-1)               210000    line: apex to apex (700)
-    ========================  =====================  ========  =========================
-
-    Hull perimeter 2238.5 um. The robot starts lying on its +z bridge (two apex lines).
-    """
-    for nm, val in (("length", length), ("bar_height", bar_height), ("spike_base", spike_base), ("spike_height", spike_height)):
-        _check_dim(nm, val)
-    if not spike_base < length / 2:
-        raise ValueError(f"spike_base={spike_base!r} is not allowed (allowed: < length / 2 = {length / 2!r} m)")
-    hy, hz, b = length / 2, bar_height / 2, spike_base
-    az, ay = hz + spike_height, hy - b / 2
-    prof = [
-        (-hy, -hz),
-        (-ay, -az),
-        (-hy + b, -hz),
-        (hy - b, -hz),
-        (ay, -az),
-        (hy, -hz),
-        (hy, hz),
-        (ay, az),
-        (hy - b, hz),
-        (-hy + b, hz),
-        (-ay, az),
-        (-hy, hz),
-    ]
-    shp = extruded(prof, thickness, name="spiked_ends", mass_from=mass_from)
-    labels = {"+y face #1": "+y flank -z", "+y face #2": "+y end", "+y face #3": "+y flank +z"}
-    labels |= {"-y face #1": "-y flank +z", "-y face #2": "-y end", "-y face #3": "-y flank -z"}
-    return _relabel(shp, labels)
-
-
-def curved(
-    r_outer: float = 1250e-6,
-    r_inner: float = 1100e-6,
-    half_angle_deg: float = 25.0,
-    thickness: float = 400e-6,
-    *,
-    mass_from: str = "aluminum_robot",
-) -> Shape:
-    """Curved robot (MODEL.md "Shapes"): an annular sector of radii ``r_outer`` and
-    ``r_inner`` (m) and half-angle ``half_angle_deg``, extruded by ``thickness``, its
-    centre of curvature on the body z axis below the CM, so that the outer arc bulges
-    toward +z and the robot starts lying on it. Inertia: see ``mass_from`` in
-    :func:`extruded` (default: the aluminum robot's).
-
-    Hull faces (defaults; normals in body (y, z); areas in um^2):
-
-    ======================  ======================  ========  ============================
-    face                    outward normal          area      contact
-    ======================  ======================  ========  ============================
-    +x side, -x side        (+-1 along x)           153807    real profile
-    +y end, -y end          (+-0.906, -0.423)       60000     real radial faces, 150 x 400
-    +z arc (cylinder_x)     radial, (0, 1) at top   436332    line: real outer arc
-    -z chord                (0, -1)                 371904    line: chord of the inner arc
-    ======================  ======================  ========  ============================
-
-    The centre of curvature is at body ``z = -1139.6`` um (``cm_shift``); hull perimeter
-    2320.6 um (arc 1090.8 + chord 929.8 + ends 2 x 150).
-    """
-    for nm, val in (("r_outer", r_outer), ("r_inner", r_inner)):
-        _check_dim(nm, val)
-    if not r_inner < r_outer:
-        raise ValueError(f"r_inner={r_inner!r} is not allowed (allowed: < r_outer = {r_outer!r} m)")
-    if isinstance(half_angle_deg, bool) or not isinstance(half_angle_deg, (int, float)) or not 0.0 < half_angle_deg < 90.0:
-        raise ValueError(f"half_angle_deg={half_angle_deg!r} is not allowed (allowed: 0 < half_angle_deg < 90)")
-    a = math.radians(half_angle_deg)
-    s, c = math.sin(a), math.cos(a)
-    # centre of curvature at the origin here; extruded re-centres at the centroid
-    prof = [(-r_inner * s, r_inner * c), (r_inner * s, r_inner * c), (r_outer * s, r_outer * c), (-r_outer * s, r_outer * c)]
-    shp = extruded(prof, thickness, arcs={0: -r_inner, 2: r_outer}, name="curved", mass_from=mass_from)
-    return _relabel(shp, {"+y face": "+y end", "-y face": "-y end", "+z arc": "+z outer arc", "-z bridge": "-z inner chord"})
-
-
-SHAPES: dict[str, Callable[[], Shape]] = {"cuboid": cuboid, "spiked": spiked, "spiked_ends": spiked_ends, "curved": curved}
-
-
-def get_shape(shape: str | Shape) -> Shape:
-    """A shape by name (its defaults) from :data:`SHAPES`, or the Shape itself."""
-    if isinstance(shape, Shape):
-        return shape
-    if shape not in SHAPES:
-        raise ValueError(f"shape={shape!r} is unknown (allowed: {', '.join(sorted(SHAPES))})")
-    return SHAPES[shape]()

@@ -26,46 +26,9 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtri
 from scipy.stats import beta
 
-from .results import annotate
+from tumblemc.schema import CELL_DIMS, CI_METHODS, COORD_ATTRS, MAP_VARIABLES, SWEEP_DIMS, annotate
 
-CI_METHODS = ("wilson", "clopper-pearson")
-CELL_DIMS = ("shape", "incline_deg", "substrate")
-SWEEP_DIMS = ("field_mT", "freq_hz")  # dims of the maps only when the study sweeps them
 REQUIRED = ("shape", "substrate", "incline_deg", "status", "climbed", "progress_ratio", "mean_speed")
-
-COORD_ATTRS: dict[str, dict[str, str]] = {
-    "shape": {"long_name": "robot shape"},
-    "substrate": {"long_name": "substrate preset"},
-    "incline_deg": {"units": "degree", "long_name": "incline angle of the plane"},
-    "field_mT": {"units": "mT", "long_name": "magnitude of the rotating magnetic field"},
-    "freq_hz": {"units": "Hz", "long_name": "rotation frequency of the magnetic field"},
-    "quantile": {"units": "1", "long_name": "quantile level"},
-}
-
-MAP_VARIABLES: dict[str, dict[str, str]] = {
-    "p_success": {
-        "units": "1",
-        "long_name": "fraction of valid runs that climbed (n_success / n_valid)",
-        "ancillary_variables": "p_success_lower p_success_upper n_valid n_failed",
-    },
-    "p_success_lower": {"units": "1", "long_name": "lower bound of the confidence interval of p_success"},
-    "p_success_upper": {"units": "1", "long_name": "upper bound of the confidence interval of p_success"},
-    "n_success": {"units": "1", "long_name": "number of valid runs that climbed"},
-    "n_valid": {"units": "1", "long_name": "number of valid runs (status ok)"},
-    "n_failed": {"units": "1", "long_name": "number of runs that are not valid (status not ok)"},
-    "p_success_invalid_as_failure": {
-        "units": "1",
-        "long_name": "fraction of all runs that climbed, counting invalid runs as failures (n_success / n_runs)",
-    },
-    "p_success_invalid_as_success": {
-        "units": "1",
-        "long_name": "fraction of all runs, counting invalid runs as successes ((n_success + n_failed) / n_runs)",
-    },
-    "n_runs": {"units": "1", "long_name": "number of runs"},
-    "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs"},
-    "progress_ratio_quantile": {"units": "1", "long_name": "quantiles of the progress ratio over valid runs"},
-    "mean_speed_mean": {"units": "m s-1", "long_name": "mean uphill speed over valid runs"},
-}
 
 
 def _check_ci_args(level: float, method: str) -> None:

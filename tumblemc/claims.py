@@ -18,10 +18,13 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from .params import PRESETS
-from .simulate import DEFAULT_DT, simulate, summarize
+from tumblemc.model.outcome import summarize
+from tumblemc.model.params import PRESETS
+from tumblemc.model.run import DEFAULT_DT, simulate
 
 CONVERGENCE_DTS = (5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
+
+
 CONVERGENCE_CASES = (
     ("flat paper 1 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=1.0)),
     ("flat paper 10 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=10.0)),
@@ -29,9 +32,17 @@ CONVERGENCE_CASES = (
     ("aluminum 20 deg", dict(preset="aluminum", incline_deg=20.0, freq_hz=1.0)),
     ("aluminum 30 deg", dict(preset="aluminum", incline_deg=30.0, freq_hz=1.0)),
 )
+
+
 _C = PRESETS["paper"].adhesion_C
+
+
 _L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
+
+
 FACE_ADHESION = _C * _L * _W  # paper: 1.189e-6 N
+
+
 END_ADHESION = _C * _W * _H  # paper: 1.486e-7 N
 
 
@@ -237,6 +248,8 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
 
 
 SHAPE_ORDER = ("cuboid", "spiked", "spiked_ends", "curved")
+
+
 #: paper (MODEL.md "What the paper reports"): aluminum, 20 mT, 1 Hz
 SHAPE_CLIMBS = {
     20: dict.fromkeys(SHAPE_ORDER, True),
@@ -279,7 +292,7 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     x = np.arange(len(SHAPE_ORDER))
     for j, preset in enumerate(("paper", "aluminum")):
         ax.bar(x + 0.38 * (j - 0.5), [speeds[preset][k] * 1e3 for k in SHAPE_ORDER], 0.38, label=preset)
-    from .shapes import get_shape
+    from tumblemc.model.shapes.library import get_shape
 
     ax.plot(x, [get_shape(k).hull_perimeter * 10.0 * 1e3 for k in SHAPE_ORDER], "k_", ms=30, mew=2, label="no slip (hull perimeter x f)")
     ax.set(xticks=x, xticklabels=SHAPE_ORDER, ylabel="mean speed (mm/s)", title="flat substrate, 20 mT, 10 Hz")
@@ -472,6 +485,3 @@ def run_validation(out_dir: str | Path = "validation", quick: bool = False) -> i
     n_pass = sum(r.verdict == "pass" for r in rep.rows)
     print(f"claims: {n_pass} passed, {n_fail} not reproduced; wrote {out}/claims.md ({time.perf_counter() - t0:.0f} s)")
     return 0
-
-
-__all__ = ["CONVERGENCE_DTS", "convergence", "default_dt", "run_validation"]

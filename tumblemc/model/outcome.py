@@ -1,0 +1,68 @@
+"""TODO docstring (split from tumblemc/simulate.py)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+
+def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float = 0.5, min_window_periods: float = 1.0) -> dict[str, Any]:
+    """Summary of a run measured after the transient.
+
+    Speeds and progress are measured over ``[transient_periods / f, t_end]`` (with phi > 0
+    the robot first tips backwards, so the start depends on the initial field phase).
+
+    Returns
+    -------
+    dict
+        ``mean_speed`` (uphill, m/s), ``ideal_speed`` (hull perimeter x f, m/s),
+        ``progress_ratio``, ``climbed`` (``progress_ratio >= threshold``),
+        ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
+        between the solver's ``tol`` and ``accept_tol``), ``mean_newton_iterations``,
+        ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
+        ``status`` (0: ok; otherwise the run stopped early, speed and ratio are NaN and
+        ``climbed`` is False).
+    """
+    from tumblemc.model.params import check_number
+
+    transient_periods = check_number("transient_periods", transient_periods, "", 0.0, 1e6)
+    threshold = check_number("threshold", threshold, "", -1e6, 1e6)
+    min_window_periods = check_number("min_window_periods", min_window_periods, "", 0.0, 1e6)
+    f = float(ds.attrs["freq_hz"])
+    if not f > 0:
+        raise ValueError("summarize needs a rotating field (freq_hz > 0)")
+    t = ds["time"].values
+    t0 = transient_periods / f
+    window = t[-1] - t0
+    if window < min_window_periods / f - 1e-9:
+        raise ValueError(
+            f"run too short: duration {t[-1]:.6g} s leaves {window:.6g} s after the transient of "
+            f"{t0:.6g} s (allowed: at least {min_window_periods} field period(s) = {min_window_periods / f:.6g} s)"
+        )
+    i0 = int(np.searchsorted(t, t0 - 1e-9 * float(ds.attrs["dt"])))
+    prog = ds["progress"].values
+    dur = t[-1] - t[i0]
+    mean_speed = (prog[-1] - prog[i0]) / dur
+    ideal = float(ds.attrs["ideal_speed"])
+    ratio = mean_speed / ideal
+    status = int(ds.attrs["status"])
+    if status != 0:  # the run stopped early (non-finite state): no verdict
+        mean_speed = ratio = math.nan
+    n_steps = max(int(ds.attrs["n_steps"]), 1)
+    return {
+        "mean_speed": float(mean_speed),
+        "ideal_speed": ideal,
+        "progress_ratio": float(ratio),
+        "climbed": bool(ratio >= threshold),
+        "max_penetration": float(ds["penetration"].max()),
+        "failed_steps": int(ds.attrs["failed_steps"]),
+        "loose_steps": int(ds["loose"].sum()) if "loose" in ds else 0,
+        "mean_newton_iterations": float(ds["newton_iterations"].sum()) / n_steps,
+        "mean_slip_speed": float(ds["slip_speed"].values[i0:].mean()),
+        "substeps": int(ds["substeps"].sum()),
+        "fallbacks": int(ds["fallbacks"].sum()),
+        "status": status,
+    }

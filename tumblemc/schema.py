@@ -1,0 +1,224 @@
+"""The one schema of tumblemc outputs: dimensions, units and descriptions.
+
+Every variable a run writes is declared here once; :func:`annotate` carries the
+declarations into a Dataset so that files written anywhere have the same metadata.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from tumblemc.kernels import batch as KB
+
+CONTACT_MODE_FLAGS = {"flag_values": np.array([0, 1, 2], dtype=np.int8), "flag_meanings": "none point_or_line face"}
+
+
+RUN_VARIABLES: dict[str, dict[str, Any]] = {
+    "time": {"units": "s", "long_name": "time since the start of the run"},
+    "progress": {"units": "m", "long_name": "uphill progress of the centre of mass along the plane"},
+    "position": {"units": "m", "long_name": "centre-of-mass position (world frame)"},
+    "quaternion": {"units": "1", "long_name": "orientation quaternion, scalar first (body to world)"},
+    "velocity": {"units": "m s-1", "long_name": "centre-of-mass velocity (world frame)"},
+    "omega": {"units": "rad s-1", "long_name": "angular velocity (world frame)"},
+    "normal_force": {"units": "N", "long_name": "normal contact force (sum over pieces)"},
+    "adhesion_force": {"units": "N", "long_name": "adhesion force C*A from this step's contact mode (applied in the next step)"},
+    "contact_area": {"units": "m2", "long_name": "adhering contact area"},
+    "contact_mode": {"units": "1", "long_name": "contact mode", **CONTACT_MODE_FLAGS},
+    "slip_speed": {"units": "m s-1", "long_name": "tangential slip speed at the equivalent contact point"},
+    "ecp": {"units": "m", "long_name": "equivalent contact point on the robot (world frame; NaN in flight)"},
+    "newton_iterations": {"units": "1", "long_name": "Newton iterations in the step (free-flight prediction included)"},
+    "residual": {"units": "1", "long_name": "final max-norm of the scaled residual in the step"},
+    "fallbacks": {
+        "units": "1",
+        "long_name": "damped (Levenberg-Marquardt) or gradient Newton steps plus extra solve strategies in the step",
+    },
+    "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt) in the step"},
+    "penetration": {"units": "m", "long_name": "depth of the robot below the plane at the end of the step"},
+    "failed": {"units": "1", "long_name": "steps whose solve did not converge at the smallest sub-step"},
+    "loose": {
+        "units": "1",
+        "long_name": "steps with a (sub-)step kept, without halving, at a residual between the solver's tol and accept_tol",
+    },
+    "field": {"units": "T", "long_name": "magnetic flux density B (world frame)"},
+}
+
+
+def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) -> xr.Dataset:
+    """Attach the attributes of ``schema`` (default: a run's, :data:`RUN_VARIABLES`) to
+    every variable of ``ds`` it names (in place)."""
+    for name, attrs in (RUN_VARIABLES if schema is None else schema).items():
+        if name in ds.variables:
+            ds[name].attrs.update(attrs)
+    return ds
+
+
+
+
+
+
+CI_METHODS = ("wilson", "clopper-pearson")
+
+
+CELL_DIMS = ("shape", "incline_deg", "substrate")
+
+
+SWEEP_DIMS = ("field_mT", "freq_hz")  # dims of the maps only when the study sweeps them
+
+
+COORD_ATTRS: dict[str, dict[str, str]] = {
+    "shape": {"long_name": "robot shape"},
+    "substrate": {"long_name": "substrate preset"},
+    "incline_deg": {"units": "degree", "long_name": "incline angle of the plane"},
+    "field_mT": {"units": "mT", "long_name": "magnitude of the rotating magnetic field"},
+    "freq_hz": {"units": "Hz", "long_name": "rotation frequency of the magnetic field"},
+    "quantile": {"units": "1", "long_name": "quantile level"},
+}
+
+
+MAP_VARIABLES: dict[str, dict[str, str]] = {
+    "p_success": {
+        "units": "1",
+        "long_name": "fraction of valid runs that climbed (n_success / n_valid)",
+        "ancillary_variables": "p_success_lower p_success_upper n_valid n_failed",
+    },
+    "p_success_lower": {"units": "1", "long_name": "lower bound of the confidence interval of p_success"},
+    "p_success_upper": {"units": "1", "long_name": "upper bound of the confidence interval of p_success"},
+    "n_success": {"units": "1", "long_name": "number of valid runs that climbed"},
+    "n_valid": {"units": "1", "long_name": "number of valid runs (status ok)"},
+    "n_failed": {"units": "1", "long_name": "number of runs that are not valid (status not ok)"},
+    "p_success_invalid_as_failure": {
+        "units": "1",
+        "long_name": "fraction of all runs that climbed, counting invalid runs as failures (n_success / n_runs)",
+    },
+    "p_success_invalid_as_success": {
+        "units": "1",
+        "long_name": "fraction of all runs, counting invalid runs as successes ((n_success + n_failed) / n_runs)",
+    },
+    "n_runs": {"units": "1", "long_name": "number of runs"},
+    "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs"},
+    "progress_ratio_quantile": {"units": "1", "long_name": "quantiles of the progress ratio over valid runs"},
+    "mean_speed_mean": {"units": "m s-1", "long_name": "mean uphill speed over valid runs"},
+}
+
+
+
+
+
+
+
+#: outcome columns of :func:`simulate_rows`, with their dtypes
+OUTCOMES: dict[str, type] = {
+    "progress_ratio": np.float64,
+    "mean_speed": np.float64,
+    "progress": np.float64,
+    "climbed": np.int8,
+    "status": np.int8,
+    "newton_iterations": np.float64,
+    "substeps": np.int64,
+    "fallbacks": np.int64,
+    "failed_steps": np.int64,
+    "loose_steps": np.int64,
+    "max_penetration": np.float64,
+}
+
+
+STATUS_FLAGS = {
+    "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR], dtype=np.int8),
+    "flag_meanings": "ok failed_steps nonfinite error",
+}
+
+
+
+
+
+
+
+OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
+    "progress_ratio": {"units": "1", "long_name": "mean uphill speed after the transient over the no-slip speed (hull perimeter x f)"},
+    "mean_speed": {"units": "m s-1", "long_name": "mean uphill speed after the transient"},
+    "progress": {"units": "m", "long_name": "uphill progress after the transient"},
+    "climbed": {
+        "units": "1",
+        "long_name": "run succeeded: status ok and progress_ratio >= success_ratio",
+        "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "no yes",
+    },
+    "status": {"units": "1", "long_name": "run status", **STATUS_FLAGS},
+    "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step"},
+    "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total"},
+    "fallbacks": {"units": "1", "long_name": "damped or gradient Newton steps and extra solve strategies, total"},
+    "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
+    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol"},
+    "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
+    "error": {"long_name": "why the run could not start (empty when it ran)"},
+}
+
+
+#: columns of a critical study's check task: dtype, width ("grid": one per check incline,
+#: "pair": the two inclines around the first failure) and the fill of a run that raised
+CHECK_COLUMNS: dict[str, tuple[type, str, float]] = {
+    "grid_climbed": (np.int8, "grid", 0),
+    "grid_status": (np.int8, "grid", 3),
+    "pair_incline": (np.float64, "pair", np.nan),
+    "pair_climbed": (np.int8, "pair", 0),
+    "pair_status": (np.int8, "pair", 3),
+    "pair_climbed_fine": (np.int8, "pair", 0),
+    "pair_status_fine": (np.int8, "pair", 3),
+}
+
+
+TIMESTAMP_ATTRS = ("history", "date_created")
+
+
+
+
+
+
+
+#: outcome columns of :func:`bisect_rows`
+CRITICAL_OUTCOMES: dict[str, type] = {
+    "critical_incline_deg": np.float64,
+    "fails_at_deg": np.float64,
+    "censored": np.int8,
+    "n_simulations": np.int64,
+    "status": np.int8,
+    "newton_iterations": np.float64,
+    "substeps": np.int64,
+    "failed_steps": np.int64,
+    "loose_steps": np.int64,
+}
+
+
+CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
+    "critical_incline_deg": {
+        "units": "degree",
+        "long_name": "steepest incline the sample was seen to climb (lower end of the final bracket); NaN if it fails at incline_range.min",
+    },
+    "fails_at_deg": {
+        "units": "degree",
+        "long_name": "gentlest incline the sample was seen to fail (upper end of the final bracket); NaN if it climbs incline_range.max",
+    },
+    "censored": {
+        "units": "1",
+        "long_name": "critical incline outside incline_range (meaningful where status is ok)",
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+        "flag_meanings": "fails_at_min bracketed climbs_at_max",
+    },
+    "n_simulations": {"units": "1", "long_name": "simulations used by the bisection"},
+    "status": {"units": "1", "long_name": "worst status of the run's simulations", **STATUS_FLAGS},
+    "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step over the run's simulations"},
+    "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total over the run's simulations"},
+    "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step, total"},
+    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol, total"},
+}
+
+
+
+
+
+
+
+SENSITIVITY_COORD_ATTRS: dict[str, dict[str, str]] = {**COORD_ATTRS, "parameter": {"long_name": "uncertain parameter"}}

@@ -1,0 +1,218 @@
+"""TODO docstring (split from tumblemc/engine.py)."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from tumblemc import __version__
+from tumblemc.analysis.critical import climbs_at
+from tumblemc.schema import CRITICAL_ATTRS, CRITICAL_OUTCOMES, OUTCOME_ATTRS, OUTCOMES, STATUS_FLAGS
+from tumblemc.study.config import StudyConfig
+from tumblemc.study.design import check_inclines, study_dt
+
+
+def git_sha() -> str:
+    """The git commit of the tumblemc source tree, or ``"unknown"``."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=5, check=True)
+        return out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def provenance(cfg: StudyConfig, cjson: str, chash: str) -> dict[str, Any]:
+    """CF/ACDD global attributes and provenance of a study file."""
+    now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
+    return {
+        "Conventions": "CF-1.10, ACDD-1.3",
+        "title": f"tumblemc study {cfg.name}",
+        "summary": cfg.description or f"Monte Carlo robustness study {cfg.name}",
+        "source": f"tumblemc {__version__}",
+        "history": f"{now} tumblemc {__version__} run_study {cfg.name}",
+        "date_created": now,
+        "tumblemc_version": __version__,
+        "git_sha": git_sha(),
+        "study_name": cfg.name,
+        "config_json": cjson,
+        "config_hash": chash,
+        "seed": int(cfg.seed),
+        "success_ratio": float(cfg.success_ratio),
+        "uncertain": ",".join(cfg.uncertain_names),
+    }
+
+
+def _with_outcomes(des: xr.Dataset, main: dict[str, np.ndarray], columns: dict[str, type], attrs: dict[str, dict[str, Any]]) -> xr.Dataset:
+    """The design plus the outcome ``columns`` of every run (checked to be complete)."""
+    n = des.sizes["run"]
+    runs = des.copy()
+    if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
+        raise RuntimeError("internal error: the shards do not hold every run of the study")
+    for k, dtype in columns.items():
+        runs[k] = ("run", main[k].astype(dtype))
+        runs[k].attrs.update(attrs[k])
+    runs["error"] = ("run", main["error"].astype(str))
+    runs["error"].attrs.update(OUTCOME_ATTRS["error"])
+    return runs
+
+
+def _check_pos(check: dict[str, np.ndarray], check_idx: np.ndarray) -> np.ndarray:
+    """Positions of the check runs ``check_idx`` in the (sorted) check shards."""
+    pos = np.searchsorted(check["run"], check_idx)
+    if not np.array_equal(check["run"][np.minimum(pos, len(check["run"]) - 1)], check_idx):
+        raise RuntimeError("internal error: the shards do not hold every check run of the study")
+    return pos
+
+
+def assemble_runs(
+    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
+) -> xr.Dataset:
+    """The ``runs`` group: the design plus every run's outcome and the check subset."""
+    runs = _with_outcomes(des, main, OUTCOMES, OUTCOME_ATTRS)
+    runs["climbed"].attrs["ancillary_variables"] = "status progress_ratio"
+    runs["progress_ratio"].attrs["ancillary_variables"] = "status"
+    if len(check_idx):
+        pos = _check_pos(check, check_idx)
+        fine_ratio = check["progress_ratio"][pos]
+        fine_climbed = check["climbed"][pos].astype(np.int8)
+        runs["check_run"] = ("check", check_idx)
+        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a run re-simulated at dt / check_dt_factor"})
+        runs["check_progress_ratio_fine"] = ("check", fine_ratio)
+        runs["check_progress_ratio_fine"].attrs.update({"units": "1", "long_name": "progress ratio of the re-simulation at the finer dt"})
+        runs["check_climbed_fine"] = ("check", fine_climbed)
+        runs["check_climbed_fine"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdict of the re-simulation at the finer dt",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "no yes",
+            }
+        )
+        runs["check_status_fine"] = ("check", check["status"][pos].astype(np.int8))
+        runs["check_status_fine"].attrs.update({"units": "1", "long_name": "status of the re-simulation at the finer dt", **STATUS_FLAGS})
+        compared = (check["status"][pos] == 0) & (runs["status"].values[check_idx] == 0)
+        agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
+        runs["check_agree"] = ("check", agree)
+        runs["check_agree"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdict at the study dt equals the verdict at the finer dt (compared only where both runs are valid)",
+                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                "flag_meanings": "not_compared no yes",
+            }
+        )
+        d = np.abs(fine_ratio - runs["progress_ratio"].values[check_idx])
+        runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
+        runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
+        runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
+        runs.attrs["check_max_abs_ratio_diff"] = float(np.nanmax(d)) if np.isfinite(d).any() else math.nan
+        runs = runs.assign_coords(check=np.arange(len(check_idx)))
+        runs["check"].attrs.update({"units": "1", "long_name": "index of a numerical-check run"})
+    if "run" in runs.coords:
+        runs["run"].attrs.update({"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"})
+    runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
+    runs.attrs["dt"] = study_dt(cfg)
+    return runs
+
+
+def assemble_critical(
+    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
+) -> xr.Dataset:
+    """The ``runs`` group of a critical-incline study: the design, each sample's critical
+    incline, and the monotonicity and numerical checks of the check subset."""
+    n = des.sizes["run"]
+    runs = _with_outcomes(des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
+    runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
+    runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
+    lo, hi = cfg.incline_range
+    th = np.array(check_inclines(cfg))
+    runs.attrs.update(
+        {
+            "mode": cfg.mode,
+            "incline_range_min": lo,
+            "incline_range_max": hi,
+            "incline_tol": cfg.incline_tol,
+            "check_dt_factor": float(cfg.check.dt_factor),
+        }
+    )
+    runs.attrs["dt"] = study_dt(cfg)
+    if len(check_idx):
+        pos = _check_pos(check, check_idx)
+        g = check["grid_climbed"][pos].astype(np.int8)
+        gs = check["grid_status"][pos].astype(np.int8)
+        pred = climbs_at(runs["critical_incline_deg"].values[check_idx], th)
+        ok = (gs == 0) & (runs["status"].values[check_idx] == 0)[:, None]
+        dis = (g != pred) & ok
+        # a verdict sequence along the incline is monotone if it never climbs after a failure
+        nonmono = np.array([bool(np.any(np.diff(row[okr].astype(int)) > 0)) for row, okr in zip(g, ok, strict=True)])
+        runs = runs.assign_coords(check=np.arange(len(check_idx)), check_incline_deg=th)
+        runs["check"].attrs.update({"units": "1", "long_name": "index of a check run"})
+        runs["check_incline_deg"].attrs.update({"units": "degree", "long_name": "grid incline of the monotonicity check"})
+        runs["check_run"] = ("check", check_idx)
+        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a checked sample"})
+        runs["check_grid_climbed"] = (("check", "check_incline_deg"), g)
+        runs["check_grid_climbed"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdict of a direct simulation at the grid incline",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "no yes",
+            }
+        )
+        runs["check_grid_status"] = (("check", "check_incline_deg"), gs)
+        runs["check_grid_status"].attrs.update(
+            {"units": "1", "long_name": "status of the direct simulation at the grid incline", **STATUS_FLAGS}
+        )
+        runs["check_disagree"] = (("check", "check_incline_deg"), dis.astype(np.int8))
+        runs["check_disagree"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "direct verdict differs from incline <= critical_incline_deg",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "agree disagree",
+            }
+        )
+        runs["check_nonmonotone"] = ("check", nonmono.astype(np.int8))
+        runs["check_nonmonotone"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "sample climbs a grid incline steeper than one it fails",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "monotone nonmonotone",
+            }
+        )
+        pc, pf = check["pair_climbed"][pos].astype(np.int8), check["pair_climbed_fine"][pos].astype(np.int8)
+        compared = np.all((check["pair_status_fine"][pos] == 0) & (check["pair_status"][pos] == 0), axis=1)
+        agree = np.where(compared, np.all(pc == pf, axis=1).astype(np.int8), -1).astype(np.int8)
+        runs["check_agree"] = ("check", agree)
+        runs["check_agree"].attrs.update(
+            {
+                "units": "1",
+                "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor (compared only where all four runs are valid)",
+                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                "flag_meanings": "not_compared no yes",
+            }
+        )
+        runs["check_climbed_fine"] = (("check", "pair"), pf)
+        runs["check_climbed_fine"].attrs.update(
+            {"units": "1", "long_name": "verdicts at dt / check_dt_factor at the inclines check_pair_incline_deg"}
+        )
+        runs["check_pair_incline_deg"] = (("check", "pair"), check["pair_incline"][pos])
+        runs["check_pair_incline_deg"].attrs.update(
+            {"units": "degree", "long_name": "last climbing and first failing grid incline of the direct simulation"}
+        )
+        n_ok = int(ok.sum())
+        runs.attrs["monotonicity_disagreement_rate"] = float(dis.sum() / n_ok) if n_ok else math.nan
+        runs.attrs["monotonicity_nonmonotone_samples"] = int(nonmono.sum())
+        runs.attrs["monotonicity_checked_samples"] = len(check_idx)
+        runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
+        runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
+    runs.attrs["simulations_total"] = int(runs["n_simulations"].sum())
+    runs.attrs["simulations_grid_equivalent"] = int(n * len(th))
+    return runs

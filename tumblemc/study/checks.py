@@ -1,0 +1,136 @@
+"""TODO docstring (split from tumblemc/sampling.py)."""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from tumblemc.model.params import describe_interval
+
+
+class ConfigError(ValueError):
+    """One problem in a study config; ``key`` is its dotted path (``uncertain.mu.rel_sd``)."""
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+MAX_GRID_VALUES = 10_001
+_INF = math.inf
+
+
+def config_error(key: str, value: Any, problem: str, allowed: str) -> ConfigError:
+    return ConfigError(key, f"{key}={value!r} {problem} (allowed: {allowed})")
+
+
+def is_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def check_num(key: str, value: Any, lo: float = -_INF, hi: float = _INF, lo_open: bool = False, hi_open: bool = False) -> float:
+    allowed = describe_interval(lo, hi, lo_open, hi_open)
+    if not is_number(value):
+        raise config_error(key, value, "is not a number", allowed)
+    x = float(value)
+    ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
+    if not ok:
+        raise config_error(key, value, "is out of range", allowed)
+    return x + 0.0  # -0.0 -> 0.0: one canonical zero for hashes
+
+
+def check_int(key: str, value: Any, lo: int, hi: int) -> int:
+    allowed = f"an integer in [{lo}, {hi}]"
+    if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
+        raise config_error(key, value, "is not an integer", allowed)
+    if not lo <= int(value) <= hi:
+        raise config_error(key, value, "is out of range", allowed)
+    return int(value)
+
+
+def check_str(key: str, value: Any, allowed: str = "a string") -> str:
+    if not isinstance(value, str):
+        raise config_error(key, value, "is not a string", allowed)
+    return value
+
+
+def check_choice(key: str, value: Any, choices: Sequence[str]) -> str:
+    allowed = "one of " + ", ".join(repr(c) for c in choices)
+    if not isinstance(value, str):
+        raise config_error(key, value, "is not a string", allowed)
+    if value not in choices:
+        close = difflib.get_close_matches(value, choices, n=1)
+        hint = f" - did you mean {close[0]!r}?" if close else ""
+        raise config_error(key, value, f"is not allowed{hint}", allowed)
+    return value
+
+
+def check_table(key: str, value: Any) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise config_error(key, value, "is not a table", "a TOML table / mapping")
+    for k in value:
+        if not isinstance(k, str):
+            raise config_error(f"{key}.{k}", k, "is not a string key", "string keys")
+    return value
+
+
+def join_key(prefix: str, key: str) -> str:
+    return f"{prefix}.{key}" if prefix else key
+
+
+def check_no_unknown(table: Mapping[str, Any], allowed: Sequence[str], prefix: str, what: str = "key") -> None:
+    for k in table:
+        if k not in allowed:
+            close = difflib.get_close_matches(k, allowed, n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            key = join_key(prefix, k)
+            raise ConfigError(key, f"{key} is not a known {what} ({hint}allowed: {', '.join(allowed)})")
+
+
+def check_required(table: Mapping[str, Any], key: str, prefix: str, allowed: str) -> Any:
+    if table.get(key) is None:
+        path = join_key(prefix, key)
+        raise ConfigError(path, f"{path} is missing (required: {allowed})")
+    return table[key]
+
+
+def check_str_list(key: str, value: Any, choices: Sequence[str], what: str) -> tuple[str, ...]:
+    allowed = f"a non-empty list of distinct {what} names ({', '.join(sorted(choices))})"
+    if not isinstance(value, (list, tuple)) or not value:
+        raise config_error(key, value, "is not a non-empty list", allowed)
+    out = tuple(check_choice(f"{key}[{i}]", v, sorted(choices)) for i, v in enumerate(value))
+    if len(set(out)) != len(out):
+        raise config_error(key, value, "has duplicates", allowed)
+    return out
+
+
+def check_num_list(key: str, value: Any, lo: float, hi: float, lo_open: bool = False) -> tuple[float, ...]:
+    allowed = f"a number or a non-empty list of distinct numbers, each {describe_interval(lo, hi, lo_open)}"
+    if is_number(value):
+        return (check_num(key, value, lo, hi, lo_open),)
+    if not isinstance(value, (list, tuple)) or not value:
+        raise config_error(key, value, "is not a number or a non-empty list", allowed)
+    if len(value) > MAX_GRID_VALUES:
+        raise config_error(key, f"<{len(value)} values>", "is too long", f"at most {MAX_GRID_VALUES} values")
+    out = tuple(check_num(f"{key}[{i}]", v, lo, hi, lo_open) for i, v in enumerate(value))
+    if len(set(out)) != len(out):
+        raise config_error(key, value, "has duplicates", allowed)
+    return out
+
+
+def check_range_table(key: str, value: Mapping[str, Any], lo: float, hi: float) -> tuple[float, ...]:
+    check_no_unknown(value, ("start", "stop", "step"), key)
+    start = check_num(f"{key}.start", check_required(value, "start", key, describe_interval(lo, hi)), lo, hi)
+    stop = check_num(f"{key}.stop", check_required(value, "stop", key, describe_interval(lo, hi)), lo, hi)
+    step = check_num(f"{key}.step", check_required(value, "step", key, "a number > 0"), 0.0, _INF, lo_open=True)
+    if stop < start:
+        raise config_error(f"{key}.stop", value["stop"], "is below start", f"a number >= start = {start:g}")
+    n = math.floor((stop - start) / step + 1e-9) + 1
+    if n > MAX_GRID_VALUES:
+        raise config_error(f"{key}.step", value["step"], f"gives {n} values", f"at most {MAX_GRID_VALUES} values")
+    # rounding makes 0.1-steps land on 0.3, not 0.30000000000000004 (cell ids use repr)
+    return tuple(round(start + i * step, 10) + 0.0 for i in range(n))

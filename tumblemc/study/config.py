@@ -1,0 +1,487 @@
+"""Study design: configs, input distributions, samplers and seeds keyed by run id.
+
+A *study* is a grid of *cells* (shape x substrate x incline x field x frequency), each
+holding ``samples`` runs whose uncertain parameters are drawn from distributions around
+the substrate preset's nominal values. This module turns a TOML file (or a dict) into a
+validated :class:`StudyConfig` and the config into a run table (:func:`design`); it runs
+no simulation.
+
+Randomness is data: a run's identity is ``(shape, substrate, incline_deg, field_mT,
+freq_hz, sample)`` and its parameters depend only on the root ``seed`` and that identity,
+never on list positions, batch sizes or how many cells the study has.
+
+TOML schema
+-----------
+Top level (``*`` required):
+
+===================  ===================================================================
+key                  meaning
+===================  ===================================================================
+name*                identifier, ``[A-Za-z0-9_-]+``
+description          free text
+mode                 ``"grid"`` (default: every run is one incline of the grid) or
+                     ``"critical_incline"`` (every run is one parameter sample; the
+                     engine bisects on the incline for the steepest one it climbs)
+incline_range        critical_incline only: ``{min, max}`` degrees (default 0, 60)
+incline_tol          critical_incline only: bisection tolerance, degrees (default 0.5)
+shapes*              list of shape names (:data:`tumblemc.shapes.SHAPES`)
+presets*             list of substrate presets (:data:`tumblemc.params.PRESETS`); the
+                     run-table coordinate is ``substrate``
+incline_deg*         list of numbers, or ``{start, stop, step}`` (stop inclusive);
+                     each in [-89, 89] degrees
+field_mT*            number or list, mT, in (0, 10000]
+freq_hz*             number or list, Hz, in (0, 10000]
+periods              simulated field periods, >= 2 (default 2)
+transient_periods    periods discarded before measuring (default 1); at least one period
+                     must remain (``transient_periods <= periods - 1``)
+dt                   time step, s (default: the simulator's ``DEFAULT_DT``)
+torque               ``"start"`` (default) or ``"end"``
+success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
+samples*             runs per cell, integer >= 1
+sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
+seed*                root seed, integer >= 0
+ci                   ``"wilson"`` (default) or ``"clopper-pearson"``
+ci_level             confidence level of the intervals (default 0.95)
+[check]              numerical-error subset re-simulated at ``dt / dt_factor``:
+                     ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4)
+[execution]          how to run, not what: ``batch_size`` (8), ``max_in_flight``,
+                     ``workers``; excluded from :func:`config_hash`
+[uncertain.<param>]  one table per uncertain parameter (below)
+===================  ===================================================================
+
+``<param>`` is any numeric field of :class:`~tumblemc.params.Params` (``mass``,
+``F_elect``, ``mu``, ``offset_deg``, ``V_m``, ``magnetization``, ``adhesion_C``,
+``line_contact_fraction``, ``e_t``, ``e_o``, ``e_r``, ``g``) or ``field_mT``. Values are
+in the units of that field (SI; degrees for ``offset_deg``, mT for ``field_mT``). The
+*nominal* value is the preset's value (the cell's ``field_mT`` for ``field_mT``).
+``dist`` picks the distribution and its parameters, either absolute or relative to the
+nominal value (never both):
+
+=============  ====================================================  ===================
+dist           absolute                                              relative
+=============  ====================================================  ===================
+normal         ``sd`` [, ``mean``]                                    ``rel_sd``
+truncnormal    ``sd`` [, ``mean``, ``lower``, ``upper``]              ``rel_sd``
+lognormal      ``sd`` [, ``mean``]  (mean and sd of the value)        ``cv`` (sd / mean)
+uniform        ``low``, ``high``                                      ``rel_low``,
+                                                                      ``rel_high``
+triangular     ``low``, ``high`` [, ``mode``]                         ``rel_low``,
+                                                                      ``rel_high``
+                                                                      [, ``rel_mode``]
+=============  ====================================================  ===================
+
+``mean`` (normal, truncnormal, lognormal) defaults to the nominal value, ``mode`` to the
+nominal value (``rel_mode`` to 1). ``rel_sd`` and ``cv`` multiply ``|nominal|``;
+``rel_low``, ``rel_mode`` and ``rel_high`` multiply a positive nominal
+(``rel_low = 0.8, rel_high = 1.2`` is nominal +-20%). ``truncnormal`` is a normal with
+location ``mean`` and scale ``sd`` cut to ``[lower, upper]`` (defaults: the physical
+bounds), so its mean moves when the cut is near.
+
+Without an ``[uncertain]`` table the defaults (:data:`DEFAULT_UNCERTAIN`) apply: ``mu``
+truncnormal with ``rel_sd = 0.15``; ``adhesion_C`` lognormal with ``cv = 0.3``;
+``offset_deg`` normal with ``sd = 5`` degrees; ``magnetization`` normal with
+``rel_sd = 0.1``. ``uncertain = {}`` means no uncertain parameter.
+
+Example::
+
+    name = "smoke"
+    shapes = ["cuboid"]
+    presets = ["aluminum"]
+    incline_deg = {start = 0, stop = 60, step = 30}
+    field_mT = 20
+    freq_hz = 1
+    samples = 16
+    seed = 20190818
+
+    [uncertain.mu]
+    dist = "truncnormal"
+    rel_sd = 0.15
+
+    [uncertain.adhesion_C]
+    dist = "lognormal"
+    cv = 0.3
+
+Every problem is one :class:`ConfigError` naming the key path (``uncertain.mu.rel_sd``),
+the value and what is allowed; unknown keys are errors with a did-you-mean.
+
+Notes
+-----
+*Physical bounds.* Each parameter has a physical range (``mu >= 0``, ``mass > 0``,
+``0 <= line_contact_fraction <= 1``, ``|offset_deg| <= 180``, ...; :data:`PHYSICAL_RANGE`,
+the same as :class:`~tumblemc.params.Params` enforces). Samples never leave it and are
+never clipped onto it (no probability atom at a bound): ``normal`` and ``lognormal`` are
+accepted only if they put at most :data:`NEGLIGIBLE_MASS` (1e-6) of probability outside
+the range for every preset (and field) of the study, and are then sampled truncated to
+the range, which changes them by less than that; wider ones are a ConfigError that
+suggests ``truncnormal``. ``truncnormal`` cuts at ``lower``/``upper`` (inside the range)
+and must keep at least :data:`MIN_KEPT_MASS` of the normal. ``uniform`` and
+``triangular`` must lie inside the range.
+
+*Samplers.* Uniforms in (0, 1) are mapped through each distribution's ppf.
+
+- ``mc`` (default): one stream per run, ``SeedSequence([seed, *cell_hash, sample])``,
+  one slot of it per possible uncertain parameter (:data:`UNCERTAIN_PARAMS` order), so a
+  run's draw does not depend on the other runs, on ``samples``, or on which other
+  parameters are uncertain. Per-cell success counts are exactly binomial, which is what
+  the Wilson and Clopper-Pearson intervals assume: the reported intervals are honest.
+- ``sobol``: scrambled Sobol points (:class:`scipy.stats.qmc.Sobol`) seeded by
+  ``SeedSequence([seed, *cell_hash])``; ``2**ceil(log2 N)`` points are drawn and the first
+  N kept, so growing ``samples`` keeps the earlier runs (balance is best when N is a
+  power of two). Estimates usually have lower variance than ``mc``, but the runs of a
+  cell are not independent, so binomial intervals are only approximate for it.
+- ``lhs``: Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`) seeded by the cell.
+  Independent of other cells and of run order, but *not* prefix-stable: changing
+  ``samples`` redraws every run of the cell.
+
+Changing :data:`SAMPLING_SCHEME` (any change to how draws are derived) changes every
+:func:`config_hash`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import re
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+from tumblemc.model.params import PRESETS
+from tumblemc.model.run import TORQUE_OPTIONS
+from tumblemc.model.shapes import SHAPES
+from tumblemc.schema import CI_METHODS
+from tumblemc.study.checks import (
+    ConfigError,
+    check_choice,
+    check_int,
+    check_no_unknown,
+    check_num,
+    check_num_list,
+    check_range_table,
+    check_required,
+    check_str,
+    check_str_list,
+    check_table,
+    config_error,
+)
+from tumblemc.study.distributions import DEFAULT_UNCERTAIN, Uncertain, nominal_value, parse_uncertain
+
+#: version of the seed derivation and sampler mapping; part of every config hash
+SAMPLING_SCHEME = 1
+
+
+MODES = ("grid", "critical_incline")
+
+
+SAMPLERS = ("mc", "sobol", "lhs")
+
+
+TORQUES = TORQUE_OPTIONS  # the simulator's torque options
+
+
+MAX_SAMPLES = 1_000_000
+
+
+
+
+@dataclass(frozen=True)
+class CheckConfig:
+    """Numerical-error check: ``max(min_runs, ceil(fraction * runs))`` runs (at most all)
+    are re-simulated at ``dt / dt_factor``."""
+
+    fraction: float = 0.02
+    min_runs: int = 20
+    dt_factor: int = 4
+
+
+@dataclass(frozen=True)
+class ExecutionConfig:
+    """How a study is run (not part of its identity): runs per dask task, tasks in
+    flight and workers (``None``: the engine decides)."""
+
+    batch_size: int = 8
+    max_in_flight: int | None = None
+    workers: int | None = None
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """A validated study (see the module docstring for the meaning of each field).
+
+    Lists are tuples; ``incline_deg`` is expanded from a ``{start, stop, step}`` table;
+    ``uncertain`` is sorted by parameter name.
+    """
+
+    name: str
+    shapes: tuple[str, ...]
+    presets: tuple[str, ...]
+    incline_deg: tuple[float, ...]
+    field_mT: tuple[float, ...]
+    freq_hz: tuple[float, ...]
+    samples: int
+    seed: int
+    description: str = ""
+    incline_range: tuple[float, float] = (0.0, 60.0)
+    incline_tol: float = 0.5
+    mode: str = "grid"
+    periods: float = 2.0
+    transient_periods: float = 1.0
+    dt: float | None = None
+    torque: str = "start"
+    success_ratio: float = 0.5
+    sampler: str = "mc"
+    ci: str = "wilson"
+    ci_level: float = 0.95
+    check: CheckConfig = field(default_factory=CheckConfig)
+    execution: ExecutionConfig = field(default_factory=ExecutionConfig)
+    uncertain: tuple[Uncertain, ...] = ()
+
+    @property
+    def cell_dims(self) -> tuple[str, ...]:
+        """Names of the coordinates that identify a cell in this mode."""
+        return _MODES[self.mode].dims
+
+    @property
+    def uncertain_names(self) -> tuple[str, ...]:
+        return tuple(u.param for u in self.uncertain)
+
+    @property
+    def n_runs(self) -> int:
+        return len(cells(self)) * self.samples
+
+    def duration_s(self, freq_hz: float) -> float:
+        """Simulated time of a run at ``freq_hz``, s."""
+        return self.periods / freq_hz
+
+
+@dataclass(frozen=True)
+class _Mode:
+    dims: tuple[str, ...]  # cell coordinates, in run-table order (outermost first)
+    keys: tuple[str, ...]  # top-level keys only this mode takes
+    cells: Callable[[StudyConfig], list[dict[str, Any]]]
+
+
+def _grid_cells(c: StudyConfig) -> list[dict[str, Any]]:
+    return [
+        {"shape": s, "substrate": p, "incline_deg": i, "field_mT": b, "freq_hz": f}
+        for s in c.shapes
+        for p in c.presets
+        for i in c.incline_deg
+        for b in c.field_mT
+        for f in c.freq_hz
+    ]
+
+
+def _critical_cells(c: StudyConfig) -> list[dict[str, Any]]:
+    return [
+        {"shape": s, "substrate": p, "field_mT": b, "freq_hz": f}
+        for s in c.shapes
+        for p in c.presets
+        for b in c.field_mT
+        for f in c.freq_hz
+    ]
+
+
+_MODES: dict[str, _Mode] = {
+    "grid": _Mode(("shape", "substrate", "incline_deg", "field_mT", "freq_hz"), ("incline_deg",), _grid_cells),
+    # one run = one parameter sample; the engine bisects on the incline within
+    # incline_range to incline_tol; incline_deg is the grid of the monotonicity check
+    "critical_incline": _Mode(
+        ("shape", "substrate", "field_mT", "freq_hz"), ("incline_deg", "incline_range", "incline_tol"), _critical_cells
+    ),
+}
+
+
+_COMMON_KEYS = (
+    "name",
+    "description",
+    "mode",
+    "shapes",
+    "presets",
+    "field_mT",
+    "freq_hz",
+    "periods",
+    "transient_periods",
+    "dt",
+    "torque",
+    "success_ratio",
+    "samples",
+    "sampler",
+    "seed",
+    "ci",
+    "ci_level",
+    "check",
+    "execution",
+    "uncertain",
+)
+
+
+def load_config(source: str | PathLike[str] | Mapping[str, Any] | StudyConfig) -> StudyConfig:
+    """Read and validate a study config.
+
+    Parameters
+    ----------
+    source : path, mapping or StudyConfig
+        A TOML file (``str`` or path-like), the mapping ``tomllib`` would give, or an
+        already validated config (returned unchanged).
+
+    Returns
+    -------
+    StudyConfig
+
+    Raises
+    ------
+    ConfigError
+        For the first problem found, naming the key path, the value and what is allowed
+        (for a file, prefixed with its path).
+    """
+    if isinstance(source, StudyConfig):
+        return source
+    if isinstance(source, Mapping):
+        return _parse(source)
+    path = Path(source)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError("", f"{path}: not valid TOML: {e}") from None
+    try:
+        return _parse(data)
+    except ConfigError as e:
+        raise ConfigError(e.key, f"{path}: {e}") from None
+
+
+def _parse(d: Mapping[str, Any]) -> StudyConfig:
+    d = check_table("<config>", d)
+    mode = check_choice("mode", d["mode"], MODES) if d.get("mode") is not None else "grid"
+    m = _MODES[mode]
+    check_no_unknown(d, (*_COMMON_KEYS, *m.keys), "")
+
+    def req(key: str, allowed: str) -> Any:
+        return check_required(d, key, "", allowed)
+
+    name = check_str("name", req("name", "a name of letters, digits, '_' and '-'"))
+    if not re.fullmatch(r"[A-Za-z0-9_-]+", name):
+        raise config_error("name", name, "is not allowed", "letters, digits, '_' and '-' only")
+    description = check_str("description", d.get("description") or "")
+    shapes = check_str_list("shapes", req("shapes", "a list of shape names"), tuple(SHAPES), "shape")
+    presets = check_str_list("presets", req("presets", "a list of preset names"), tuple(PRESETS), "preset")
+
+    inc = req("incline_deg", "a list of numbers or a {start, stop, step} table")
+    incline = check_range_table("incline_deg", inc, -89.0, 89.0) if isinstance(inc, Mapping) else check_num_list("incline_deg", inc, -89.0, 89.0)
+    field_mT = check_num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, 10_000.0, lo_open=True)
+    freq_hz = check_num_list("freq_hz", req("freq_hz", "a number or list, Hz"), 0.0, 10_000.0, lo_open=True)
+
+    rng_t = check_table("incline_range", d.get("incline_range", {"min": 0.0, "max": 60.0}))
+    check_no_unknown(rng_t, ("min", "max"), "incline_range")
+    inc_min = check_num("incline_range.min", rng_t.get("min", 0.0), -89.0, 89.0)
+    inc_max = check_num("incline_range.max", rng_t.get("max", 60.0), -89.0, 89.0)
+    if not inc_max > inc_min:
+        raise config_error("incline_range.max", inc_max, "is not above incline_range.min", f"a number > {inc_min:g}")
+    inc_tol = check_num("incline_tol", d.get("incline_tol", 0.5), 1e-3, 90.0)
+    if mode == "critical_incline":
+        inside = [t for t in incline if inc_min <= t <= inc_max]
+        if len(inside) < 2:
+            raise config_error(
+                "incline_deg",
+                list(incline),
+                f"has {len(inside)} incline(s) inside incline_range [{inc_min:g}, {inc_max:g}]",
+                "at least 2 there: they are the grid of the monotonicity check",
+            )
+
+    periods = check_num("periods", d.get("periods", 2.0), 2.0, 1e6)
+    transient = check_num("transient_periods", d.get("transient_periods", 1.0), 0.0, 1e6)
+    if transient > periods - 1.0:
+        raise config_error(
+            "transient_periods",
+            d.get("transient_periods", 1.0),
+            "leaves less than one measured period",
+            f"a number in [0, periods - 1 = {periods - 1:g}]",
+        )
+    dt = None if d.get("dt") is None else check_num("dt", d["dt"], 1e-9, 0.1)
+    torque = check_choice("torque", d.get("torque", "start"), TORQUES)
+    success_ratio = check_num("success_ratio", d.get("success_ratio", 0.5), 0.0, 1.0, lo_open=True)
+    samples = check_int("samples", req("samples", f"an integer in [1, {MAX_SAMPLES}]"), 1, MAX_SAMPLES)
+    sampler = check_choice("sampler", d.get("sampler", "mc"), SAMPLERS)
+    seed = check_int("seed", req("seed", "an integer >= 0"), 0, 2**63 - 1)
+    ci = check_choice("ci", d.get("ci", "wilson"), CI_METHODS)
+    ci_level = check_num("ci_level", d.get("ci_level", 0.95), 0.5, 1.0, hi_open=True)
+
+    ct = check_table("check", d.get("check", {}))
+    check_no_unknown(ct, ("fraction", "min_runs", "dt_factor"), "check")
+    check = CheckConfig(
+        fraction=check_num("check.fraction", ct.get("fraction", 0.02), 0.0, 1.0),
+        min_runs=check_int("check.min_runs", ct.get("min_runs", 20), 0, 10**9),
+        dt_factor=check_int("check.dt_factor", ct.get("dt_factor", 4), 2, 64),
+    )
+    et = check_table("execution", d.get("execution", {}))
+    check_no_unknown(et, ("batch_size", "max_in_flight", "workers"), "execution")
+    execution = ExecutionConfig(
+        batch_size=check_int("execution.batch_size", et.get("batch_size", 8), 1, 10**6),
+        max_in_flight=None if et.get("max_in_flight") is None else check_int("execution.max_in_flight", et["max_in_flight"], 1, 10**6),
+        workers=None if et.get("workers") is None else check_int("execution.workers", et["workers"], 1, 10**5),
+    )
+    uncertain = parse_uncertain(d.get("uncertain", DEFAULT_UNCERTAIN))
+
+    cfg = StudyConfig(
+        name=name,
+        shapes=shapes,
+        presets=presets,
+        incline_deg=incline,
+        field_mT=field_mT,
+        freq_hz=freq_hz,
+        samples=samples,
+        seed=seed,
+        description=description,
+        incline_range=(inc_min, inc_max),
+        incline_tol=inc_tol,
+        mode=mode,
+        periods=periods,
+        transient_periods=transient,
+        dt=dt,
+        torque=torque,
+        success_ratio=success_ratio,
+        sampler=sampler,
+        ci=ci,
+        ci_level=ci_level,
+        check=check,
+        execution=execution,
+        uncertain=uncertain,
+    )
+    for u in uncertain:  # every nominal the study will meet
+        for p in presets:
+            for b in field_mT if u.param == "field_mT" else field_mT[:1]:
+                nom = nominal_value(u.param, p, b)
+                where = f"field_mT={b:g}" if u.param == "field_mT" else f"preset {p!r} (nominal {u.param} = {nom:g})"
+                u.resolve(nom, where)
+    return cfg
+
+
+def cells(config: StudyConfig) -> list[dict[str, Any]]:
+    """Cell coordinates in run-table order (shape outermost, then substrate, incline,
+    field, frequency), one dict per cell keyed by ``config.cell_dims``."""
+    return _MODES[config.mode].cells(config)
+
+
+def config_to_json(config: StudyConfig) -> str:
+    """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg``
+    expanded, ``[execution]`` left out. ``load_config(json.loads(...))`` gives the config
+    back (with the default execution table)."""
+    d = dataclasses.asdict(config)
+    del d["execution"]
+    for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
+        d[k] = list(d[k])
+    d["uncertain"] = {u.param: u.to_dict() for u in config.uncertain}
+    d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
+    if config.mode == "grid":  # keys only the critical-incline mode takes
+        del d["incline_range"], d["incline_tol"]
+    return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def config_hash(config: StudyConfig) -> str:
+    """sha256 (hex) of the sampling scheme and :func:`config_to_json`: the identity of a
+    study's results; insensitive to ``[execution]``."""
+    return hashlib.sha256(f"tumblemc-sampling-{SAMPLING_SCHEME}\n{config_to_json(config)}".encode()).hexdigest()
