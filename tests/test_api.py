@@ -19,10 +19,11 @@ from tumblemc.model.params import PRESETS, Params
         ({"mu": -0.1}, ["mu", "-0.1"]),
         ({"mu": math.nan}, ["mu", "nan"]),
         ({"adhesion_C": "lots"}, ["adhesion_C", "lots"]),
-        ({"line_contact_fraction": 2.0}, ["line_contact_fraction", "[0.0, 1.0]"]),
+        ({"line_contact_fraction": 2.0}, ["line_contact_fraction", "[0, 1]"]),
         ({"offset_axis": (0, 0, 0)}, ["offset_axis"]),
         ({"frobnicate": 1.0}, ["frobnicate", "allowed"]),
-        ({"incline_deg": 95.0}, ["incline_deg", "95.0"]),
+        ({"incline_deg": 95.0}, ["incline_deg", "95.0", "[-89, 89]"]),
+        ({"freq_hz": -1.0}, ["freq_hz", "-1.0", "[0, 10000]"]),
         ({"torque": "middle"}, ["torque", "start", "end"]),
         ({"preset": "glass"}, ["preset", "glass", "paper"]),
         ({"shape": "sphere"}, ["shape", "sphere", "cuboid"]),
@@ -190,9 +191,9 @@ def test_field_direction_convention() -> None:
     from tumblemc.kernels import layout as L
     from tumblemc.kernels.stepper import field_dir
     from tumblemc.model.frames import plane_frame
-    from tumblemc.model.run import prepare
+    from tumblemc.model.run import prepare, run_inputs
 
-    spec = prepare(incline_deg=30.0, freq_hz=2.0, duration_s=0.001)
+    spec = prepare(run_inputs(incline_deg=30.0, freq_hz=2.0, duration_s=0.001))
     fr = plane_frame(30.0)
     out = np.zeros(3)
     field_dir(spec.prm, 0.0, out)
@@ -217,10 +218,10 @@ def test_torque_at_end_of_step_runs_and_tracks_no_slip() -> None:
 
 def test_contact_state_classification() -> None:
     from tumblemc.kernels.stepper import _contact_state
-    from tumblemc.model.run import prepare
+    from tumblemc.model.run import prepare, run_inputs
     from tumblemc.model.shapes.library import cuboid
 
-    spec = prepare(duration_s=0.001, line_contact_fraction=0.1)
+    spec = prepare(run_inputs(duration_s=0.001, line_contact_fraction=0.1))
     geo, prm = spec.geo, spec.prm
     shp = cuboid()
     areas = np.array([c.area for c in shp.pieces[0].constraints]) / 1e-8  # scaled

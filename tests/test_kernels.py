@@ -430,9 +430,9 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     from tumblemc.kernels.geometry import quat_step, quat_to_rot
     from tumblemc.kernels.stepper import SNAP_MAX_TILT, _snap_flat
     from tumblemc.model.frames import quat_to_matrix, rot_to_quat
-    from tumblemc.model.run import prepare
+    from tumblemc.model.run import prepare, run_inputs
 
-    spec = prepare(duration_s=0.01, incline_deg=20.0)
+    spec = prepare(run_inputs(duration_s=0.01, incline_deg=20.0))
     n = spec.prm[L.P_N : L.P_N + 3]
     h = spec.h
     rng = np.random.default_rng(3)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from tumblemc.model.params import PHYSICAL_RANGE, PRESETS, Params
+from tumblemc.model.params import PRESETS, RANGES, Params
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import StudyConfig, cells, config_hash, config_to_json, load_config
 from tumblemc.study.design import design, params_for_run, run_kwargs
@@ -213,12 +213,12 @@ def test_incline_range_is_inclusive_and_canonical() -> None:
 
 
 def test_physical_ranges_match_params_validation() -> None:
-    """PHYSICAL_RANGE mirrors Params.__post_init__: bounds allowed or refused alike."""
+    """RANGES mirrors Params.__post_init__: bounds allowed or refused alike."""
     numeric = [f for f in Params.field_names() if f not in ("offset_axis", "electrostatic_in_flight")]
     assert set(UNCERTAIN_PARAMS) == {*numeric, "field_mT"}
     base = PRESETS["paper"]
     for name in numeric:
-        r = PHYSICAL_RANGE[name]
+        r = RANGES[name]
         for bound, is_open in ((r.lo, r.lo_open), (r.hi, r.hi_open)):
             if not math.isfinite(bound):
                 continue
@@ -396,7 +396,7 @@ def test_bounds_hold_for_many_samples() -> None:
     for sampler in ("mc", "sobol"):
         ds = design(cfg(sampler=sampler, samples=2048, presets=["paper", "aluminum"], incline_deg=[0], uncertain=wide))
         for p in wide:
-            r, x = PHYSICAL_RANGE[p], ds[p].values
+            r, x = RANGES[p], ds[p].values
             assert np.all(np.isfinite(x)) and all(r.contains(v) for v in x), p
         for i in range(0, ds.sizes["run"], 97):
             PRESETS[str(ds["substrate"].values[i])].replace(**{p: float(ds[p].values[i]) for p in wide})

@@ -22,7 +22,7 @@ import xarray as xr
 from tumblemc.analysis.prim import failure_region, prim_box
 from tumblemc.analysis.screening import logistic_summary, rank_correlation
 from tumblemc.analysis.sobol import saltelli_design, sobol_indices, split_saltelli
-from tumblemc.model.params import PHYSICAL_RANGE
+from tumblemc.model.params import RANGES
 from tumblemc.study.config import load_config
 from tumblemc.study.distributions import nominal_value
 from tumblemc.study.sobol import sobol_rows
@@ -124,7 +124,7 @@ def test_sobol_rows_map_config_distributions() -> None:
         # the config's distribution at the preset's nominal value, applied to the unit column
         expect = unc.resolve(nominal_value(unc.param, "aluminum", 20.0)).ppf(U[:, j])
         np.testing.assert_array_equal(col, expect)
-        r = PHYSICAL_RANGE[unc.param]
+        r = RANGES[unc.param]
         assert np.all([r.contains(v) for v in col])
         # a monotone map: the unit column and the values are in the same order
         assert np.all(np.diff(col[np.argsort(U[:, j])]) >= 0.0)

@@ -19,7 +19,7 @@ import time
 from collections.abc import Sequence
 
 from tumblemc.kernels import layout as L
-from tumblemc.model.run import DEFAULT_DT, prepare, run_spec
+from tumblemc.model.run import DEFAULT_DT, prepare, run_inputs, run_spec
 from tumblemc.model.shapes.library import SHAPES
 
 SCENARIOS = (
@@ -40,8 +40,8 @@ def compile_time(cache_dir: str) -> float:
 
 
 def measure(kw: dict, duration_s: float, repeats: int, dt: float | None = None) -> dict[str, float]:
-    spec = prepare(duration_s=duration_s, dt=dt, **kw)
-    run_spec(prepare(duration_s=0.002, dt=dt, **kw))  # compile outside the timing
+    spec = prepare(run_inputs(duration_s=duration_s, dt=dt, **kw))
+    run_spec(prepare(run_inputs(duration_s=0.002, dt=dt, **kw)))  # compile outside the timing
     walls = []
     nit = 0.0
     for _ in range(repeats):

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtri
 from scipy.stats import beta
 
+from tumblemc.model.outcome import is_valid
 from tumblemc.schema import CELL_DIMS, CI_METHODS, COORD_ATTRS, MAP_VARIABLES, SWEEP_DIMS, annotate
 
 REQUIRED = ("shape", "substrate", "incline_deg", "status", "climbed", "progress_ratio", "mean_speed")
@@ -203,7 +204,7 @@ def maps(
     ncell = len(groups)
 
     status = runs["status"].values
-    valid = status == 0
+    valid = is_valid(status)
     success = valid & (runs["climbed"].values == 1)
     n_runs = np.bincount(idx, minlength=ncell)
     n_valid = np.bincount(idx, weights=valid, minlength=ncell).astype(np.int64)

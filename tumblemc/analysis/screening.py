@@ -12,7 +12,8 @@ from scipy import optimize, stats
 from scipy.special import expit, ndtri
 
 from tumblemc.analysis.maps import cell_groups
-from tumblemc.model.params import PHYSICAL_RANGE
+from tumblemc.model.outcome import is_valid
+from tumblemc.model.params import RANGES
 from tumblemc.schema import SENSITIVITY_COORD_ATTRS, SWEEP_DIMS
 from tumblemc.study.design import sampled_name
 
@@ -63,7 +64,7 @@ def _groups(runs: xr.Dataset, dims: Sequence[str]) -> tuple[dict[str, np.ndarray
 def valid_mask(runs: xr.Dataset) -> np.ndarray:
     if "status" not in runs.variables:
         raise ValueError("runs has no 'status' variable (0 = valid run)")
-    return np.asarray(runs["status"].values) == 0
+    return is_valid(runs["status"].values)
 
 
 def _coords(runs: xr.Dataset, dims: Sequence[str], values: Mapping[str, np.ndarray], params: Sequence[tuple[str, str]]) -> dict[str, Any]:
@@ -73,7 +74,7 @@ def _coords(runs: xr.Dataset, dims: Sequence[str], values: Mapping[str, np.ndarr
         attrs.update({k: v for k, v in runs[d].attrs.items() if k in ("units", "long_name")})
         coords[d] = (d, values[d], attrs)
     coords["parameter"] = ("parameter", np.asarray([p for p, _ in params], dtype=str), SENSITIVITY_COORD_ATTRS["parameter"])
-    units = [str(runs[v].attrs.get("units", PHYSICAL_RANGE[p].units if p in PHYSICAL_RANGE else "")) for p, v in params]
+    units = [str(runs[v].attrs.get("units", RANGES[p].units if p in RANGES else "")) for p, v in params]
     coords["parameter_units"] = ("parameter", np.asarray(units, dtype=str), {"long_name": "units of the parameter"})
     return coords
 

@@ -1,4 +1,12 @@
-"""TODO docstring (split from tumblemc/simulate.py)."""
+"""What a run amounts to: its summary and the one verdict.
+
+A run is *valid* when it finished with every step converged (outcome status ``ok``; a
+step kept loose, between the solver's ``tol`` and ``accept_tol``, counts as converged).
+:func:`climbed` is the one verdict: a valid run whose progress ratio reaches the
+threshold. :func:`summarize`, :func:`tumblemc.model.rows.simulate_rows` (and so the
+study engine and the critical-incline bisection), the maps and the screening analyses
+all decide through it: a run that is not valid is never "climbed".
+"""
 
 from __future__ import annotations
 
@@ -7,6 +15,36 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
+
+from tumblemc.kernels import layout as L
+from tumblemc.kernels.batch import BATCH_FAILED_STEPS, BATCH_NONFINITE, BATCH_OK
+from tumblemc.model.params import check_number
+
+
+def run_status(kernel_status: int, failed_steps: int, finite: bool = True) -> int:
+    """Outcome status of a run (:data:`tumblemc.schema.STATUS_FLAGS`) from the time
+    loop's status and failed-step count, as the batch kernel computes it.
+
+    ``ok`` (0): finished, every step converged; ``failed_steps`` (1): some step did not
+    converge at the smallest sub-step (or the run stopped after too many); ``nonfinite``
+    (2): stopped on a non-finite state.
+    """
+    if kernel_status == L.ST_STOPPED:
+        return BATCH_FAILED_STEPS
+    if kernel_status != L.ST_OK or not finite:
+        return BATCH_NONFINITE
+    return BATCH_FAILED_STEPS if failed_steps > 0 else BATCH_OK
+
+
+def is_valid(status: ArrayLike) -> np.ndarray:
+    """Whether runs with outcome ``status`` are valid (status ``ok``), elementwise."""
+    return np.asarray(status) == BATCH_OK
+
+
+def climbed(progress_ratio: ArrayLike, status: ArrayLike, threshold: float) -> np.ndarray:
+    """The one verdict: valid and ``progress_ratio >= threshold`` (elementwise)."""
+    return is_valid(status) & (np.asarray(progress_ratio) >= threshold)
 
 
 def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float = 0.5, min_window_periods: float = 1.0) -> dict[str, Any]:
@@ -19,15 +57,14 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
     -------
     dict
         ``mean_speed`` (uphill, m/s), ``ideal_speed`` (hull perimeter x f, m/s),
-        ``progress_ratio``, ``climbed`` (``progress_ratio >= threshold``),
+        ``progress_ratio``, ``climbed`` (:func:`climbed`: valid and
+        ``progress_ratio >= threshold``; a run with failed steps never climbed),
         ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
         between the solver's ``tol`` and ``accept_tol``), ``mean_newton_iterations``,
         ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
         ``status`` (0: ok; otherwise the run stopped early, speed and ratio are NaN and
         ``climbed`` is False).
     """
-    from tumblemc.model.params import check_number
-
     transient_periods = check_number("transient_periods", transient_periods, "", 0.0, 1e6)
     threshold = check_number("threshold", threshold, "", -1e6, 1e6)
     min_window_periods = check_number("min_window_periods", min_window_periods, "", 0.0, 1e6)
@@ -56,7 +93,7 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         "mean_speed": float(mean_speed),
         "ideal_speed": ideal,
         "progress_ratio": float(ratio),
-        "climbed": bool(ratio >= threshold),
+        "climbed": bool(climbed(ratio, run_status(status, int(ds.attrs["failed_steps"]), math.isfinite(ratio)), threshold)),
         "max_penetration": float(ds["penetration"].max()),
         "failed_steps": int(ds.attrs["failed_steps"]),
         "loose_steps": int(ds["loose"].sum()) if "loose" in ds else 0,

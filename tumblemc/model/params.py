@@ -63,6 +63,78 @@ def check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: 
     return x
 
 
+@dataclass(frozen=True)
+class PhysicalRange:
+    """Allowed values of an uncertain parameter (``lo_open``: ``lo`` itself excluded)."""
+
+    lo: float
+    hi: float
+    lo_open: bool
+    hi_open: bool
+    units: str
+    long_name: str
+
+    def describe(self) -> str:
+        return describe_interval(self.lo, self.hi, self.lo_open, self.hi_open)
+
+    def contains(self, x: float) -> bool:
+        """Whether ``x`` lies in the range."""
+        above = x > self.lo if self.lo_open else x >= self.lo
+        below = x < self.hi if self.hi_open else x <= self.hi
+        return above and below
+
+    def check(self, name: str, value: Any) -> float:
+        """``value`` as a float if it is a finite number in the range; else a ValueError
+        naming ``name``, the value and the range."""
+        if isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"{name}={value!r} is not a number (allowed: {self.describe()})")
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}={value!r} is not a number (allowed: {self.describe()})") from None
+        if not (math.isfinite(x) and self.contains(x)):
+            raise ValueError(f"{name}={value!r} is out of range (allowed: {self.describe()})")
+        return x
+
+
+#: THE range table: allowed values, units and description of every physical parameter
+#: (:class:`Params`) and run input (:func:`tumblemc.model.run.run_inputs`). Params,
+#: run_inputs, study configs and the samplers all check against it.
+RANGES: dict[str, PhysicalRange] = {
+    "mass": PhysicalRange(0.0, _INF, True, True, "kg", "robot mass"),
+    "F_elect": PhysicalRange(0.0, _INF, False, True, "N", "electrostatic force"),
+    "mu": PhysicalRange(0.0, _INF, False, True, "1", "friction coefficient"),
+    "offset_deg": PhysicalRange(-180.0, 180.0, False, False, "degree", "magnetisation offset angle"),
+    "V_m": PhysicalRange(0.0, _INF, False, True, "m^3", "magnetic volume"),
+    "magnetization": PhysicalRange(0.0, _INF, False, True, "A/m", "magnetisation"),
+    "adhesion_C": PhysicalRange(0.0, _INF, False, True, "N/m^2", "adhesion per contact area"),
+    "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact"),
+    "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t"),
+    "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o"),
+    "e_r": PhysicalRange(0.0, _INF, True, True, "m", "friction ellipsoid e_r"),
+    "g": PhysicalRange(0.0, _INF, True, True, "m/s^2", "gravity"),
+    "field_mT": PhysicalRange(0.0, 10_000.0, False, False, "mT", "rotating field magnitude (0 switches the field off)"),
+    # run inputs (tumblemc.model.run.run_inputs); a study narrows the field and the
+    # frequency to > 0, never widens a range
+    "incline_deg": PhysicalRange(-89.0, 89.0, False, False, "degree", "substrate incline"),
+    "freq_hz": PhysicalRange(0.0, 10_000.0, False, False, "Hz", "field rotation frequency"),
+    "duration_s": PhysicalRange(0.0, 1e4, False, False, "s", "simulated time"),
+    "periods": PhysicalRange(0.0, 1e6, True, False, "1", "simulated time in field periods"),
+    "dt": PhysicalRange(1e-9, 0.1, False, False, "s", "time step"),
+    "lift_m": PhysicalRange(0.0, 1.0, False, False, "m", "initial height above the resting pose"),
+}
+
+
+def describe_interval(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> str:
+    if math.isinf(lo) and math.isinf(hi):
+        return "a finite number"
+    if math.isinf(hi):
+        return f"a number {'>' if lo_open else '>='} {lo:g}"
+    if math.isinf(lo):
+        return f"a number {'<' if hi_open else '<='} {hi:g}"
+    return f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+
 def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> np.ndarray:
     """Unit body-frame magnetisation: the length axis tilted by ``offset_deg`` about the
     unit ``offset_axis`` (Rodrigues; MODEL.md: ``(0, cos phi, sin phi)`` for the width
@@ -71,6 +143,10 @@ def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> 
     y = np.array([0.0, 1.0, 0.0])
     phi = math.radians(offset_deg)
     return y * math.cos(phi) + np.cross(k, y) * math.sin(phi) + k * (k @ y) * (1.0 - math.cos(phi))
+
+
+#: the numeric fields of :class:`Params`, each checked against :data:`RANGES`
+NUMERIC_FIELDS = ("mass", "F_elect", "mu", "offset_deg", "V_m", "magnetization", "adhesion_C", "line_contact_fraction", "e_t", "e_o", "e_r", "g")
 
 
 @dataclass(frozen=True)
@@ -98,22 +174,8 @@ class Params:
     g: float = 9.81
 
     def __post_init__(self) -> None:
-        checks: dict[str, tuple[str, float | None, float | None]] = {
-            "mass": (_POSITIVE, None, None),
-            "F_elect": (_NONNEG, None, None),
-            "mu": (_NONNEG, None, None),
-            "offset_deg": ("", -180.0, 180.0),
-            "V_m": (_NONNEG, None, None),
-            "magnetization": (_NONNEG, None, None),
-            "adhesion_C": (_NONNEG, None, None),
-            "line_contact_fraction": ("", 0.0, 1.0),
-            "e_t": (_POSITIVE, None, None),
-            "e_o": (_POSITIVE, None, None),
-            "e_r": (_POSITIVE, None, None),
-            "g": (_POSITIVE, None, None),
-        }
-        for name, (rule, lo, hi) in checks.items():
-            object.__setattr__(self, name, check_number(name, getattr(self, name), rule, lo, hi))
+        for name in NUMERIC_FIELDS:
+            object.__setattr__(self, name, RANGES[name].check(name, getattr(self, name)))
         axis = self.offset_axis
         try:
             a = np.asarray(axis, dtype=float).reshape(3)
@@ -219,58 +281,3 @@ class SolverOptions:
         a[L.O_MAXFAIL] = self.max_failed_steps
         a[L.O_ACCEPT] = self.accept_tol
         return a
-
-
-
-
-
-
-
-
-@dataclass(frozen=True)
-class PhysicalRange:
-    """Allowed values of an uncertain parameter (``lo_open``: ``lo`` itself excluded)."""
-
-    lo: float
-    hi: float
-    lo_open: bool
-    hi_open: bool
-    units: str
-    long_name: str
-
-    def describe(self) -> str:
-        return describe_interval(self.lo, self.hi, self.lo_open, self.hi_open)
-
-    def contains(self, x: float) -> bool:
-        above = x > self.lo if self.lo_open else x >= self.lo
-        below = x < self.hi if self.hi_open else x <= self.hi
-        return above and below
-
-
-#: physical range, units and description of each parameter that may be uncertain; the
-#: order is part of the ``mc`` sampler's scheme (append only)
-PHYSICAL_RANGE: dict[str, PhysicalRange] = {
-    "mass": PhysicalRange(0.0, _INF, True, True, "kg", "robot mass"),
-    "F_elect": PhysicalRange(0.0, _INF, False, True, "N", "electrostatic force"),
-    "mu": PhysicalRange(0.0, _INF, False, True, "1", "friction coefficient"),
-    "offset_deg": PhysicalRange(-180.0, 180.0, False, False, "degree", "magnetisation offset angle"),
-    "V_m": PhysicalRange(0.0, _INF, False, True, "m^3", "magnetic volume"),
-    "magnetization": PhysicalRange(0.0, _INF, False, True, "A/m", "magnetisation"),
-    "adhesion_C": PhysicalRange(0.0, _INF, False, True, "N/m^2", "adhesion per contact area"),
-    "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact"),
-    "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t"),
-    "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o"),
-    "e_r": PhysicalRange(0.0, _INF, True, True, "m", "friction ellipsoid e_r"),
-    "g": PhysicalRange(0.0, _INF, True, True, "m/s^2", "gravity"),
-    "field_mT": PhysicalRange(0.0, 10_000.0, True, False, "mT", "rotating field magnitude"),
-}
-
-
-def describe_interval(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> str:
-    if math.isinf(lo) and math.isinf(hi):
-        return "a finite number"
-    if math.isinf(hi):
-        return f"a number {'>' if lo_open else '>='} {lo:g}"
-    if math.isinf(lo):
-        return f"a number {'<' if hi_open else '<='} {hi:g}"
-    return f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"

@@ -2,7 +2,7 @@
 
 :func:`simulate_rows` is the engine's unit of work (one dask task) and the bare kernel the
 engine benchmark compares against. Each run is validated and scaled by the same
-:func:`tumblemc.simulate.prepare` as :func:`tumblemc.simulate`, so a row's outcome equals
+:func:`tumblemc.model.run.run_inputs` and :func:`~tumblemc.model.run.prepare` as :func:`tumblemc.simulate`, so a row's outcome equals
 ``summarize(simulate(...))`` of the same inputs; a row whose inputs are invalid gets
 ``status = 3`` (error) and the message, it never raises.
 """
@@ -20,8 +20,9 @@ from tumblemc.kernels import batch as KB
 from tumblemc.kernels.newton import make_workspace
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import empty_record
+from tumblemc.model.outcome import climbed
 from tumblemc.model.params import SolverOptions
-from tumblemc.model.run import RunSpec, initial_contact, prepare
+from tumblemc.model.run import RunSpec, initial_contact, prepare, run_inputs
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.schema import OUTCOMES
@@ -81,14 +82,8 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
     specs: dict[int, RunSpec] = {}
     solver = SolverOptions(max_failed_steps=grid.max_failed_steps)
     for i, row in enumerate(rows):
-        kw = dict(row)
-        freq = kw.get("freq_hz", 1.0)
-        try:
-            freq = float(freq)
-            if not freq > 0:
-                raise ValueError(f"freq_hz={freq!r} is out of range (allowed: > 0 for a study)")
-            dur = grid.periods / freq
-            spec = prepare(shp, duration_s=dur, dt=grid.dt, torque=grid.torque, solver=solver, **kw)
+        try:  # the run's inputs are validated here, once (run_inputs), and trusted after
+            spec = prepare(run_inputs(shp, periods=grid.periods, dt=grid.dt, torque=grid.torque, solver=solver, **row))
         except (ValueError, TypeError) as exc:
             errors[i] = str(exc)
             continue
@@ -126,7 +121,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: T
             res["progress"][i] = progress
             res["mean_speed"][i] = speed
             res["progress_ratio"][i] = ratio
-            res["climbed"][i] = int(status == KB.BATCH_OK and ratio >= grid.success_ratio)
+            res["climbed"][i] = int(climbed(ratio, status, grid.success_ratio))
             res["newton_iterations"][i] = o[KB.B_NIT] / s.n_steps
             res["substeps"][i] = int(o[KB.B_SUB])
             res["fallbacks"][i] = int(o[KB.B_FALLBACK])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,7 @@ from tumblemc.kernels.newton import Workspace, make_workspace
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Geometry, empty_record, n_records, run
 from tumblemc.model.frames import plane_frame, rot_to_quat
-from tumblemc.model.params import Params, SolverOptions, get_preset
+from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.model.units import LENGTH_M, Units
@@ -31,6 +32,32 @@ TORQUE_OPTIONS = ("start", "end")
 
 
 MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
+DEFAULT_DURATION_S = 2.0
+
+
+@dataclass(frozen=True)
+class RunInputs:
+    """The inputs of one run, validated (SI; built only by :func:`run_inputs`).
+
+    Every later layer (:func:`prepare`, :func:`tumblemc.model.rows.simulate_rows`, the
+    study engine) trusts these values: they were checked once, against the one range
+    table :data:`tumblemc.model.params.RANGES`.
+    """
+
+    shape: Shape
+    params: Params
+    incline_deg: float
+    field_mT: float
+    freq_hz: float
+    duration_s: float
+    dt: float
+    n_steps: int
+    torque: str
+    record_every: int
+    solver: SolverOptions
+    lift_m: float
+    v0: tuple[float, float, float]
+    omega0: tuple[float, float, float]
 
 
 @dataclass
@@ -46,7 +73,6 @@ class RunSpec:
     dt: float
     torque: str
     units: Units
-    geo: Geometry
     prm: np.ndarray
     state0: np.ndarray
     n_steps: int
@@ -56,7 +82,14 @@ class RunSpec:
 
     @property
     def h(self) -> float:
+        """Time step in scaled units."""
         return self.dt / self.units.time
+
+    @cached_property
+    def geo(self) -> Geometry:
+        """The shape's kernel geometry, built on first use (the batch path builds it once
+        per shape, not per run)."""
+        return self.shape.geometry()
 
 
 def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
@@ -65,15 +98,26 @@ def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
     return str(value)
 
 
-def prepare(
+def _check_vector(name: str, vec: Any) -> tuple[float, float, float]:
+    try:
+        arr = np.asarray(vec, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.full(1, np.nan)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
+    return (float(arr[0]), float(arr[1]), float(arr[2]))
+
+
+def run_inputs(
     shape: str | Shape = "cuboid",
     preset: str | Params = "paper",
     incline_deg: float = 0.0,
     field_mT: float = 20.0,
     freq_hz: float = 1.0,
-    duration_s: float = 2.0,
+    duration_s: float | None = None,
     dt: float | None = None,
     *,
+    periods: float | None = None,
     torque: str = "start",
     record_every: int = 1,
     solver: SolverOptions | None = None,
@@ -81,26 +125,44 @@ def prepare(
     v0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     omega0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     **overrides: Any,
-) -> RunSpec:
-    """Validate the inputs of :func:`simulate` and build the scaled kernel data."""
-    from tumblemc.model.params import check_number
+) -> RunInputs:
+    """Validate the inputs of one run: the one place where run inputs are checked.
 
+    Parameters are those of :func:`simulate`. The duration is either ``duration_s``
+    (default 2 s) or ``periods`` field periods (``periods / freq_hz``, which needs
+    ``freq_hz > 0``), not both.
+
+    Returns
+    -------
+    RunInputs
+
+    Raises
+    ------
+    ValueError
+        For the first bad value, naming the argument, the value and the allowed range.
+    """
     if not isinstance(shape, (str, Shape)):
         raise ValueError(f"shape={shape!r} is not allowed (allowed: a shape name or a tumblemc.shapes.Shape)")
     if not isinstance(preset, (str, Params)):
-        raise ValueError(f"preset={preset!r} is not allowed (allowed: a preset name or a tumblemc.params.Params)")
+        raise ValueError(f"preset={preset!r} is not allowed (allowed: a preset name or a tumblemc.model.params.Params)")
     shp = get_shape(shape)
     params = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
-    incline_deg = check_number("incline_deg", incline_deg, "", -89.0, 89.0)
-    field_mT = check_number("field_mT", field_mT, "", 0.0, 10_000.0)
-    freq_hz = check_number("freq_hz", freq_hz, "", 0.0, 10_000.0)
-    duration_s = check_number("duration_s", duration_s, "", 0.0, 1e4)
-    dt = DEFAULT_DT if dt is None else check_number("dt", dt, "", 1e-9, 1e-1)
+    incline_deg = RANGES["incline_deg"].check("incline_deg", incline_deg)
+    field_mT = RANGES["field_mT"].check("field_mT", field_mT)
+    freq_hz = RANGES["freq_hz"].check("freq_hz", freq_hz)
+    if periods is not None:
+        if duration_s is not None:
+            raise ValueError(f"duration_s={duration_s!r} and periods={periods!r} are both given (allowed: one of them)")
+        periods = RANGES["periods"].check("periods", periods)
+        if not freq_hz > 0:
+            raise ValueError(f"freq_hz={freq_hz!r} is out of range (allowed: > 0 for a duration in field periods)")
+        duration_s = periods / freq_hz
+    duration_s = RANGES["duration_s"].check("duration_s", DEFAULT_DURATION_S if duration_s is None else duration_s)
+    dt = DEFAULT_DT if dt is None else RANGES["dt"].check("dt", dt)
     torque = _check_choice("torque", torque, TORQUE_OPTIONS)
     if isinstance(record_every, bool) or not float(check_number("record_every", record_every, "", 1, 1e9)).is_integer():
         raise ValueError(f"record_every={record_every!r} is not allowed (allowed: an integer >= 1)")
     record_every = int(record_every)
-    solver = solver or SolverOptions()
     n_steps = round(duration_s / dt)
     if n_steps < 1:
         raise ValueError(f"duration_s={duration_s!r} is shorter than one step dt={dt!r} (allowed: duration_s >= dt)")
@@ -110,9 +172,30 @@ def prepare(
             f"duration_s={duration_s!r} with dt={dt!r} and record_every={record_every} records {rows} rows "
             f"({rows * L.N_REC * 8 / 2**30:.1f} GiB; allowed: up to {MAX_RECORD_BYTES / 2**30:.0f} GiB): raise record_every or dt"
         )
+    lift_m = RANGES["lift_m"].check("lift_m", lift_m)
+    return RunInputs(
+        shape=shp,
+        params=params,
+        incline_deg=incline_deg,
+        field_mT=field_mT,
+        freq_hz=freq_hz,
+        duration_s=duration_s,
+        dt=dt,
+        n_steps=n_steps,
+        torque=torque,
+        record_every=record_every,
+        solver=solver or SolverOptions(),
+        lift_m=lift_m,
+        v0=_check_vector("v0", v0),
+        omega0=_check_vector("omega0", omega0),
+    )
 
+
+def prepare(inputs: RunInputs) -> RunSpec:
+    """Nondimensionalise validated inputs into the kernel's arrays (MODEL.md, "Numerics")."""
+    shp, params = inputs.shape, inputs.params
     u = Units(mass=params.mass, g=params.g)
-    fr = plane_frame(incline_deg)
+    fr = plane_frame(inputs.incline_deg)
     prm = np.zeros(L.N_PRM)
     prm[L.P_MASS] = 1.0
     prm[L.P_G] = 1.0
@@ -123,10 +206,10 @@ def prepare(
     prm[L.P_ER] = params.e_r / u.length
     prm[L.P_LINEFRAC] = params.line_contact_fraction
     prm[L.P_ADHC] = params.adhesion_C * u.area / u.force
-    prm[L.P_TORQ] = params.V_m * params.magnetization * field_mT * 1e-3 / u.torque
-    prm[L.P_FREQ] = freq_hz * u.time
+    prm[L.P_TORQ] = params.V_m * params.magnetization * inputs.field_mT * 1e-3 / u.torque
+    prm[L.P_FREQ] = inputs.freq_hz * u.time
     prm[L.P_ELECT_FLIGHT] = 1.0 if params.electrostatic_in_flight else 0.0
-    prm[L.P_TORQUE_END] = 1.0 if torque == "end" else 0.0
+    prm[L.P_TORQUE_END] = 1.0 if inputs.torque == "end" else 0.0
     prm[L.P_N : L.P_N + 3] = fr["n"]
     prm[L.P_T : L.P_T + 3] = fr["t"]
     prm[L.P_O : L.P_O + 3] = fr["o"]
@@ -138,35 +221,26 @@ def prepare(
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
     state0 = np.zeros(13)
-    lift_m = check_number("lift_m", lift_m, "", 0.0, 1.0)
-    state0[0:3] = (shp.rest_height() + lift_m) / LENGTH_M * fr["n"]
+    state0[0:3] = (shp.rest_height() + inputs.lift_m) / LENGTH_M * fr["n"]
     state0[3:7] = rot_to_quat(R0)
-    for name, vec in (("v0", v0), ("omega0", omega0)):
-        try:
-            arr = np.asarray(vec, dtype=float)
-        except (TypeError, ValueError):
-            arr = np.full(1, np.nan)
-        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
-    state0[7:10] = np.asarray(v0, dtype=float) / u.velocity
-    state0[10:13] = np.asarray(omega0, dtype=float) * u.time
+    state0[7:10] = np.asarray(inputs.v0, dtype=float) / u.velocity
+    state0[10:13] = np.asarray(inputs.omega0, dtype=float) * u.time
     return RunSpec(
-        shp,
-        params,
-        incline_deg,
-        field_mT,
-        freq_hz,
-        duration_s,
-        dt,
-        torque,
-        u,
-        shp.geometry(),
-        prm,
-        state0,
-        n_steps,
-        record_every,
-        solver,
-        lift_m,
+        shape=shp,
+        params=params,
+        incline_deg=inputs.incline_deg,
+        field_mT=inputs.field_mT,
+        freq_hz=inputs.freq_hz,
+        duration_s=inputs.duration_s,
+        dt=inputs.dt,
+        torque=inputs.torque,
+        units=u,
+        prm=prm,
+        state0=state0,
+        n_steps=inputs.n_steps,
+        record_every=inputs.record_every,
+        solver=inputs.solver,
+        lift_m=inputs.lift_m,
     )
 
 
@@ -179,14 +253,15 @@ def initial_contact(spec: RunSpec) -> tuple[float, bool]:
 
 def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = None) -> tuple[np.ndarray, int, int]:
     """Run the kernel for ``spec``; returns ``(rec, status, failed_steps)`` (scaled)."""
-    n = n_unknowns(spec.geo.pstart)
+    geo = spec.geo
+    n = n_unknowns(geo.pstart)
     ws, ws6 = workspaces or (make_workspace(n), make_workspace(6))
     rec = empty_record(spec.n_steps, spec.record_every)
     z = np.zeros(n)
     state = spec.state0.copy()
     area0, resting = initial_contact(spec)
     status, failed = run(
-        spec.geo,
+        geo,
         spec.prm,
         state,
         0.0,
@@ -280,9 +355,10 @@ def simulate(
     incline_deg: float = 0.0,
     field_mT: float = 20.0,
     freq_hz: float = 1.0,
-    duration_s: float = 2.0,
+    duration_s: float | None = None,
     dt: float | None = None,
     *,
+    periods: float | None = None,
     torque: str = "start",
     record_every: int = 1,
     solver: SolverOptions | None = None,
@@ -303,8 +379,10 @@ def simulate(
         Incline of the substrate, degrees (rotation about world x).
     field_mT, freq_hz : float
         Rotating field magnitude (mT) and frequency (Hz); 0 mT switches the field off.
-    duration_s : float
-        Simulated time, s.
+    duration_s : float, optional
+        Simulated time, s (default 2 s).
+    periods : float, optional
+        Simulated time in field periods instead of ``duration_s`` (``periods / freq_hz``).
     dt : float, optional
         Time step, s; ``None`` takes :data:`DEFAULT_DT` (set by the convergence study).
     torque : {"start", "end"}
@@ -326,20 +404,23 @@ def simulate(
         every parameter in SI, the options and the package version.
     """
     spec = prepare(
-        shape,
-        preset,
-        incline_deg,
-        field_mT,
-        freq_hz,
-        duration_s,
-        dt,
-        torque=torque,
-        record_every=record_every,
-        solver=solver,
-        lift_m=lift_m,
-        v0=v0,
-        omega0=omega0,
-        **overrides,
+        run_inputs(
+            shape,
+            preset,
+            incline_deg,
+            field_mT,
+            freq_hz,
+            duration_s,
+            dt,
+            periods=periods,
+            torque=torque,
+            record_every=record_every,
+            solver=solver,
+            lift_m=lift_m,
+            v0=v0,
+            omega0=omega0,
+            **overrides,
+        )
     )
     rec, status, failed = run_spec(spec)
     return to_dataset(spec, rec, status, failed)

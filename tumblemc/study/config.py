@@ -107,7 +107,7 @@ the value and what is allowed; unknown keys are errors with a did-you-mean.
 Notes
 -----
 *Physical bounds.* Each parameter has a physical range (``mu >= 0``, ``mass > 0``,
-``0 <= line_contact_fraction <= 1``, ``|offset_deg| <= 180``, ...; :data:`PHYSICAL_RANGE`,
+``0 <= line_contact_fraction <= 1``, ``|offset_deg| <= 180``, ...; :data:`RANGES`,
 the same as :class:`~tumblemc.params.Params` enforces). Samples never leave it and are
 never clipped onto it (no probability atom at a bound): ``normal`` and ``lognormal`` are
 accepted only if they put at most :data:`NEGLIGIBLE_MASS` (1e-6) of probability outside
@@ -150,7 +150,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any
 
-from tumblemc.model.params import PRESETS
+from tumblemc.model.params import PRESETS, RANGES
 from tumblemc.model.run import TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
@@ -354,6 +354,10 @@ def load_config(source: str | PathLike[str] | Mapping[str, Any] | StudyConfig) -
         raise ConfigError(e.key, f"{path}: {e}") from None
 
 
+#: incline bounds, degrees (the one range table); a study narrows field and frequency to > 0
+_INCLINE = (RANGES["incline_deg"].lo, RANGES["incline_deg"].hi)
+
+
 def _parse(d: Mapping[str, Any]) -> StudyConfig:
     d = check_table("<config>", d)
     mode = check_choice("mode", d["mode"], MODES) if d.get("mode") is not None else "grid"
@@ -371,14 +375,14 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
     presets = check_str_list("presets", req("presets", "a list of preset names"), tuple(PRESETS), "preset")
 
     inc = req("incline_deg", "a list of numbers or a {start, stop, step} table")
-    incline = check_range_table("incline_deg", inc, -89.0, 89.0) if isinstance(inc, Mapping) else check_num_list("incline_deg", inc, -89.0, 89.0)
-    field_mT = check_num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, 10_000.0, lo_open=True)
-    freq_hz = check_num_list("freq_hz", req("freq_hz", "a number or list, Hz"), 0.0, 10_000.0, lo_open=True)
+    incline = check_range_table("incline_deg", inc, *_INCLINE) if isinstance(inc, Mapping) else check_num_list("incline_deg", inc, *_INCLINE)
+    field_mT = check_num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, RANGES["field_mT"].hi, lo_open=True)
+    freq_hz = check_num_list("freq_hz", req("freq_hz", "a number or list, Hz"), 0.0, RANGES["freq_hz"].hi, lo_open=True)
 
     rng_t = check_table("incline_range", d.get("incline_range", {"min": 0.0, "max": 60.0}))
     check_no_unknown(rng_t, ("min", "max"), "incline_range")
-    inc_min = check_num("incline_range.min", rng_t.get("min", 0.0), -89.0, 89.0)
-    inc_max = check_num("incline_range.max", rng_t.get("max", 60.0), -89.0, 89.0)
+    inc_min = check_num("incline_range.min", rng_t.get("min", 0.0), *_INCLINE)
+    inc_max = check_num("incline_range.max", rng_t.get("max", 60.0), *_INCLINE)
     if not inc_max > inc_min:
         raise config_error("incline_range.max", inc_max, "is not above incline_range.min", f"a number > {inc_min:g}")
     inc_tol = check_num("incline_tol", d.get("incline_tol", 0.5), 1e-3, 90.0)
@@ -392,7 +396,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
                 "at least 2 there: they are the grid of the monotonicity check",
             )
 
-    periods = check_num("periods", d.get("periods", 2.0), 2.0, 1e6)
+    periods = check_num("periods", d.get("periods", 2.0), 2.0, RANGES["periods"].hi)
     transient = check_num("transient_periods", d.get("transient_periods", 1.0), 0.0, 1e6)
     if transient > periods - 1.0:
         raise config_error(
@@ -401,7 +405,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
             "leaves less than one measured period",
             f"a number in [0, periods - 1 = {periods - 1:g}]",
         )
-    dt = None if d.get("dt") is None else check_num("dt", d["dt"], 1e-9, 0.1)
+    dt = None if d.get("dt") is None else check_num("dt", d["dt"], RANGES["dt"].lo, RANGES["dt"].hi)
     torque = check_choice("torque", d.get("torque", "start"), TORQUES)
     success_ratio = check_num("success_ratio", d.get("success_ratio", 0.5), 0.0, 1.0, lo_open=True)
     samples = check_int("samples", req("samples", f"an integer in [1, {MAX_SAMPLES}]"), 1, MAX_SAMPLES)

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from tumblemc.model.outcome import is_valid
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.schema import CRITICAL_OUTCOMES
 
@@ -54,24 +55,24 @@ def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, l
     allr = np.arange(n)
     c_lo = sim(allr, np.full(n, lo))
     c_hi = np.zeros(n, dtype=bool)
-    up = np.flatnonzero(c_lo & (out["status"] == 0))  # only samples that climb the minimum
+    up = np.flatnonzero(c_lo & is_valid(out["status"]))  # only samples that climb the minimum
     if len(up):
         c_hi[up] = sim(up, np.full(len(up), hi))
     a = np.full(n, lo)
     b = np.full(n, hi)
     out["censored"][:] = np.where(~c_lo, -1, np.where(c_hi, 1, 0))
-    active = (out["status"] == 0) & c_lo & ~c_hi
+    active = is_valid(out["status"]) & c_lo & ~c_hi
     while True:
         idx = np.flatnonzero(active & (b - a > tol))
         if len(idx) == 0:
             break
         mid = 0.5 * (a[idx] + b[idx])
         climbed = sim(idx, mid)
-        ok = out["status"][idx] == 0
+        ok = is_valid(out["status"][idx])
         a[idx] = np.where(climbed & ok, mid, a[idx])
         b[idx] = np.where(~climbed & ok, mid, b[idx])
         active[idx[~ok]] = False
-    valid = out["status"] == 0
+    valid = is_valid(out["status"])
     out["critical_incline_deg"] = np.where(valid & (out["censored"] >= 0), a, np.nan)
     out["critical_incline_deg"] = np.where(valid & (out["censored"] == 1), hi, out["critical_incline_deg"])
     out["fails_at_deg"] = np.where(valid & (out["censored"] <= 0), np.where(out["censored"] == -1, lo, b), np.nan)

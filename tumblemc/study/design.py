@@ -12,7 +12,7 @@ import numpy as np
 import xarray as xr
 from scipy.stats import qmc
 
-from tumblemc.model.params import PHYSICAL_RANGE
+from tumblemc.model.params import RANGES
 from tumblemc.model.rows import TimeGrid
 from tumblemc.model.run import DEFAULT_DT
 from tumblemc.schema import COORD_ATTRS
@@ -150,7 +150,7 @@ def design(config: StudyConfig) -> xr.Dataset:
     )
     data: dict[str, Any] = {}
     for j, unc in enumerate(config.uncertain):
-        r = PHYSICAL_RANGE[unc.param]
+        r = RANGES[unc.param]
         long = f"sampled {r.long_name} ({unc.dist})"
         data[sampled_name(unc.param)] = (run, values[j], {"units": r.units, "long_name": long})
     data["check_flag"] = (

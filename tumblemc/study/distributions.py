@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from tumblemc.model.params import PHYSICAL_RANGE, PRESETS, describe_interval
+from tumblemc.model.params import PRESETS, RANGES, describe_interval
 from tumblemc.study.checks import ConfigError, check_choice, check_no_unknown, check_num, check_required, check_table, config_error
 
 _INF = math.inf
@@ -28,7 +28,9 @@ MIN_KEPT_MASS = 0.01
 U_EPS = 2.0**-53  # uniforms are kept in [eps, 1 - eps] so every ppf is finite
 
 
-UNCERTAIN_PARAMS: tuple[str, ...] = tuple(PHYSICAL_RANGE)
+#: the parameters that may be uncertain (each has a row in RANGES), in the order of the
+#: ``mc`` sampler's slots: part of the sampling scheme, append only
+UNCERTAIN_PARAMS: tuple[str, ...] = ("mass", "F_elect", "mu", "offset_deg", "V_m", "magnetization", "adhesion_C", "line_contact_fraction", "e_t", "e_o", "e_r", "g", "field_mT")
 
 
 #: the uncertainty assumed when a config has no ``[uncertain]`` table
@@ -96,7 +98,7 @@ class ParamDistribution:
         u = np.clip(np.asarray(u, dtype=float), U_EPS, 1.0 - U_EPS)
         x = np.asarray(self.dist.ppf(self.c_lo + u * (self.c_hi - self.c_lo)), dtype=float)
         # rounding guard only: the restricted distribution lies inside the range
-        r = PHYSICAL_RANGE[self.param]
+        r = RANGES[self.param]
         x = np.clip(x, r.lo, r.hi)
         if r.lo_open:
             x = np.where(x <= r.lo, np.nextafter(r.lo, _INF), x)
@@ -146,7 +148,7 @@ def parse_uncertain(value: Any) -> tuple[Uncertain, ...]:
 
 def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> None:
     """Checks that do not depend on the nominal value."""
-    r = PHYSICAL_RANGE[param]
+    r = RANGES[param]
     for k in ("sd", "rel_sd", "cv"):
         if k in a and not a[k] > 0:
             raise config_error(f"{key}.{k}", a[k], "is out of range", "a number > 0")
@@ -168,7 +170,7 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
 
 
 def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:
-    r = PHYSICAL_RANGE[u.param]
+    r = RANGES[u.param]
     a = dict(u.args)
     key = f"uncertain.{u.param}"
     at = f" for {where}" if where else ""
