@@ -11,7 +11,8 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 import tumblemc
-from tumblemc.cli import format_table, main, netcdf_ready, parse_overrides, parse_value
+from tumblemc.cli import format_table, main, parse_overrides, parse_value
+from tumblemc.io import netcdf_ready
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.viz.run import plot_run, side_view_outline, strip_offsets
 

@@ -25,9 +25,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from tumblemc import __version__
+from tumblemc.io import write_run
 from tumblemc.model.params import Params
 from tumblemc.model.run import TORQUE_OPTIONS
 
@@ -82,29 +81,6 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
     return out
 
 
-def _netcdf_safe(value: Any) -> Any:
-    """An attribute value netCDF4 can store: bools -> int, sequences -> numpy arrays."""
-    if isinstance(value, (bool, np.bool_)):
-        return int(value)
-    if value is None:
-        return ""
-    if isinstance(value, (list, tuple)):
-        arr = np.asarray([_netcdf_safe(v) for v in value])
-        return arr.astype(str) if arr.dtype == object else arr
-    if isinstance(value, np.ndarray):
-        return value.astype(np.int8) if value.dtype == bool else value
-    if isinstance(value, dict):
-        return repr(value)
-    return value
-
-
-def netcdf_ready(ds: Any) -> Any:
-    """A shallow copy of ``ds`` whose global and variable attrs are netCDF-safe."""
-    out = ds.copy(deep=False)
-    out.attrs = {k: _netcdf_safe(v) for k, v in ds.attrs.items()}
-    for name in out.variables:
-        out[name].attrs = {k: _netcdf_safe(v) for k, v in ds[name].attrs.items()}
-    return out
 
 
 def format_table(d: dict[str, Any]) -> str:
@@ -243,8 +219,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         **overrides,
     )
     out.parent.mkdir(parents=True, exist_ok=True)
-    safe = netcdf_ready(ds)
-    safe.to_netcdf(out, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
+    write_run(ds, out)
     print(f"wrote {out}")
     if args.plot:
         from tumblemc.viz.run import plot_run

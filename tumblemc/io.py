@@ -160,4 +160,38 @@ def result_attrs(path: str | Path) -> dict[str, Any]:
         return dict(ds.attrs)
 
 
-__all__ = ["ShardStore", "StudyStateError", "open_result", "parts_dir", "result_attrs", "write_result"]
+def _netcdf_safe(value: Any) -> Any:
+    """An attribute value netCDF4 can store: bools -> int, sequences -> numpy arrays."""
+    if isinstance(value, (bool, np.bool_)):
+        return int(value)
+    if value is None:
+        return ""
+    if isinstance(value, (list, tuple)):
+        arr = np.asarray([_netcdf_safe(v) for v in value])
+        return arr.astype(str) if arr.dtype == object else arr
+    if isinstance(value, np.ndarray):
+        return value.astype(np.int8) if value.dtype == bool else value
+    if isinstance(value, dict):
+        return repr(value)
+    return value
+
+
+
+def netcdf_ready(ds: Any) -> Any:
+    """A shallow copy of ``ds`` whose global and variable attrs are netCDF-safe."""
+    out = ds.copy(deep=False)
+    out.attrs = {k: _netcdf_safe(v) for k, v in ds.attrs.items()}
+    for name in out.variables:
+        out[name].attrs = {k: _netcdf_safe(v) for k, v in ds[name].attrs.items()}
+    return out
+
+
+
+def write_run(ds: xr.Dataset, path: str | Path) -> None:
+    """Write one run's Dataset (:func:`tumblemc.simulate`) to netCDF, compressed, with its
+    attributes made netCDF-safe (:func:`netcdf_ready`)."""
+    safe = netcdf_ready(ds)
+    safe.to_netcdf(path, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
+
+
+__all__ = ["ShardStore", "netcdf_ready", "StudyStateError", "open_result", "parts_dir", "result_attrs", "write_result", "write_run"]

@@ -1,7 +1,13 @@
-"""The one schema of tumblemc outputs: dimensions, units and descriptions.
+"""The one schema of tumblemc outputs: every variable, coordinate and flag, with units,
+long_name, CF ``standard_name`` where one exists, and flag values and meanings.
 
-Every variable a run writes is declared here once; :func:`annotate` carries the
-declarations into a Dataset so that files written anywhere have the same metadata.
+Declared here once and carried into Datasets by :func:`annotate` (or ``attrs.update``):
+a run's time series (:data:`RUN_VARIABLES`), a study's coordinates
+(:data:`COORD_ATTRS`), run outcomes (:data:`OUTCOMES`, :data:`OUTCOME_ATTRS`), maps
+(:data:`MAP_VARIABLES`), the critical-incline outcomes and the numerical checks
+(:data:`GRID_CHECK_VARIABLES`, :data:`CRITICAL_CHECK_VARIABLES`), and the status flags
+(:data:`STATUS_FLAGS`, :data:`CONTACT_MODE_FLAGS`). The file-level CF/ACDD and
+provenance attributes are built by :func:`tumblemc.study.assemble.provenance`.
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ CONTACT_MODE_FLAGS = {"flag_values": np.array([0, 1, 2], dtype=np.int8), "flag_m
 
 
 RUN_VARIABLES: dict[str, dict[str, Any]] = {
-    "time": {"units": "s", "long_name": "time since the start of the run"},
+    "time": {"units": "s", "standard_name": "time", "long_name": "time since the start of the run"},
     "progress": {"units": "m", "long_name": "uphill progress of the centre of mass along the plane"},
     "position": {"units": "m", "long_name": "centre-of-mass position (world frame)"},
     "quaternion": {"units": "1", "long_name": "orientation quaternion, scalar first (body to world)"},
@@ -53,10 +59,6 @@ def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) ->
         if name in ds.variables:
             ds[name].attrs.update(attrs)
     return ds
-
-
-
-
 
 
 CI_METHODS = ("wilson", "clopper-pearson")
@@ -104,11 +106,6 @@ MAP_VARIABLES: dict[str, dict[str, str]] = {
 }
 
 
-
-
-
-
-
 #: outcome columns of :func:`simulate_rows`, with their dtypes
 OUTCOMES: dict[str, type] = {
     "progress_ratio": np.float64,
@@ -129,11 +126,6 @@ STATUS_FLAGS = {
     "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR], dtype=np.int8),
     "flag_meanings": "ok failed_steps nonfinite error",
 }
-
-
-
-
-
 
 
 OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
@@ -171,11 +163,6 @@ CHECK_COLUMNS: dict[str, tuple[type, str, float]] = {
 
 
 TIMESTAMP_ATTRS = ("history", "date_created")
-
-
-
-
-
 
 
 #: outcome columns of :func:`bisect_rows`
@@ -216,9 +203,61 @@ CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
 }
 
 
-
-
-
-
-
 SENSITIVITY_COORD_ATTRS: dict[str, dict[str, str]] = {**COORD_ATTRS, "parameter": {"long_name": "uncertain parameter"}}
+
+
+#: variables and coordinates of the numerical dt check of a grid study (``runs`` group)
+GRID_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
+    "check_run": {"units": "1", "long_name": "index (along run) of a run re-simulated at dt / check_dt_factor"},
+    "check_progress_ratio_fine": {"units": "1", "long_name": "progress ratio of the re-simulation at the finer dt"},
+    "check_climbed_fine": {
+        "units": "1",
+        "long_name": "verdict of the re-simulation at the finer dt",
+        "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "no yes",
+    },
+    "check_status_fine": {"units": "1", "long_name": "status of the re-simulation at the finer dt", **STATUS_FLAGS},
+    "check_agree": {
+        "units": "1",
+        "long_name": "verdict at the study dt equals the verdict at the finer dt (compared only where both runs are valid)",
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+        "flag_meanings": "not_compared no yes",
+    },
+    "check": {"units": "1", "long_name": "index of a numerical-check run"},
+    "run": {"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"},
+}
+
+#: variables and coordinates of the monotonicity and dt checks of a critical-incline study (``runs`` group)
+CRITICAL_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
+    "run": {"units": "1", "long_name": "run index (one parameter sample each)"},
+    "check": {"units": "1", "long_name": "index of a check run"},
+    "check_incline_deg": {"units": "degree", "long_name": "grid incline of the monotonicity check"},
+    "check_run": {"units": "1", "long_name": "index (along run) of a checked sample"},
+    "check_grid_climbed": {
+        "units": "1",
+        "long_name": "verdict of a direct simulation at the grid incline",
+        "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "no yes",
+    },
+    "check_grid_status": {"units": "1", "long_name": "status of the direct simulation at the grid incline", **STATUS_FLAGS},
+    "check_disagree": {
+        "units": "1",
+        "long_name": "direct verdict differs from incline <= critical_incline_deg",
+        "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "agree disagree",
+    },
+    "check_nonmonotone": {
+        "units": "1",
+        "long_name": "sample climbs a grid incline steeper than one it fails",
+        "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "monotone nonmonotone",
+    },
+    "check_agree": {
+        "units": "1",
+        "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor (compared only where all four runs are valid)",
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+        "flag_meanings": "not_compared no yes",
+    },
+    "check_climbed_fine": {"units": "1", "long_name": "verdicts at dt / check_dt_factor at the inclines check_pair_incline_deg"},
+    "check_pair_incline_deg": {"units": "degree", "long_name": "last climbing and first failing grid incline of the direct simulation"},
+}

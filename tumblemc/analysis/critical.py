@@ -1,4 +1,6 @@
-"""TODO docstring (split from tumblemc/critical.py)."""
+"""Critical-incline results as functions of Datasets: the verdict at a given incline,
+the expansion onto a grid of inclines (so that :func:`tumblemc.analysis.maps.maps`
+applies) and the comparison with a grid study."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""TODO docstring (split from tumblemc/simulate.py)."""
+"""Frames and rotations (MODEL.md, "Frames and state"): the plane's normal, contact
+tangents and uphill direction for an incline, and quaternion/matrix conversions."""
 
 from __future__ import annotations
 

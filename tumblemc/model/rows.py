@@ -10,9 +10,9 @@ engine benchmark compares against. Each run is validated and scaled by the same
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -26,6 +26,31 @@ from tumblemc.model.run import RunSpec, initial_contact, prepare, run_inputs
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.schema import OUTCOMES
+
+
+class RunRow(TypedDict, total=False):
+    """The inputs of one run that vary within a batch (a row of :func:`simulate_rows`):
+    :func:`tumblemc.model.run.run_inputs` keywords, checked there. Absent keys take
+    ``run_inputs``' defaults and the preset's values."""
+
+    preset: str
+    incline_deg: float
+    field_mT: float
+    freq_hz: float
+    mass: float
+    F_elect: float
+    mu: float
+    offset_deg: float
+    offset_axis: tuple[float, float, float]
+    V_m: float
+    magnetization: float
+    adhesion_C: float
+    line_contact_fraction: float
+    e_t: float
+    e_o: float
+    e_r: float
+    electrostatic_in_flight: bool
+    g: float
 
 
 @dataclass(frozen=True)
@@ -53,14 +78,14 @@ def _record_stride(n_steps: int, i0: int) -> tuple[int, int]:
     return k, (i0 // k if i0 > 0 else 0)
 
 
-def simulate_rows(shape: str | Shape, rows: Sequence[Mapping[str, Any]], grid: TimeGrid) -> dict[str, np.ndarray]:
+def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) -> dict[str, np.ndarray]:
     """Simulate one run per row of ``rows`` through the batch kernel.
 
     Parameters
     ----------
     shape : str or Shape
         Shared by every row.
-    rows : sequence of mappings
+    rows : sequence of RunRow
         Keyword arguments of :func:`tumblemc.simulate` per run: ``preset``,
         ``incline_deg``, ``field_mT``, ``freq_hz`` and any parameter overrides. Rows that
         share ``freq_hz`` share the time grid; rows are grouped by it internally.

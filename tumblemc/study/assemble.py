@@ -1,4 +1,5 @@
-"""TODO docstring (split from tumblemc/engine.py)."""
+"""The ``runs`` group of a study file from its design and shards (grid and critical-incline
+modes, with the numerical dt check), and the file's provenance attributes."""
 
 from __future__ import annotations
 
@@ -13,7 +14,14 @@ import xarray as xr
 
 from tumblemc import __version__
 from tumblemc.analysis.critical import climbs_at
-from tumblemc.schema import CRITICAL_ATTRS, CRITICAL_OUTCOMES, OUTCOME_ATTRS, OUTCOMES, STATUS_FLAGS
+from tumblemc.schema import (
+    CRITICAL_ATTRS,
+    CRITICAL_CHECK_VARIABLES,
+    CRITICAL_OUTCOMES,
+    GRID_CHECK_VARIABLES,
+    OUTCOME_ATTRS,
+    OUTCOMES,
+)
 from tumblemc.study.config import StudyConfig
 from tumblemc.study.design import check_inclines, study_dt
 
@@ -82,40 +90,26 @@ def assemble_runs(
         fine_ratio = check["progress_ratio"][pos]
         fine_climbed = check["climbed"][pos].astype(np.int8)
         runs["check_run"] = ("check", check_idx)
-        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a run re-simulated at dt / check_dt_factor"})
+        runs["check_run"].attrs.update(GRID_CHECK_VARIABLES["check_run"])
         runs["check_progress_ratio_fine"] = ("check", fine_ratio)
-        runs["check_progress_ratio_fine"].attrs.update({"units": "1", "long_name": "progress ratio of the re-simulation at the finer dt"})
+        runs["check_progress_ratio_fine"].attrs.update(GRID_CHECK_VARIABLES["check_progress_ratio_fine"])
         runs["check_climbed_fine"] = ("check", fine_climbed)
-        runs["check_climbed_fine"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdict of the re-simulation at the finer dt",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "no yes",
-            }
-        )
+        runs["check_climbed_fine"].attrs.update(GRID_CHECK_VARIABLES["check_climbed_fine"])
         runs["check_status_fine"] = ("check", check["status"][pos].astype(np.int8))
-        runs["check_status_fine"].attrs.update({"units": "1", "long_name": "status of the re-simulation at the finer dt", **STATUS_FLAGS})
+        runs["check_status_fine"].attrs.update(GRID_CHECK_VARIABLES["check_status_fine"])
         compared = (check["status"][pos] == 0) & (runs["status"].values[check_idx] == 0)
         agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
-        runs["check_agree"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdict at the study dt equals the verdict at the finer dt (compared only where both runs are valid)",
-                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                "flag_meanings": "not_compared no yes",
-            }
-        )
+        runs["check_agree"].attrs.update(GRID_CHECK_VARIABLES["check_agree"])
         d = np.abs(fine_ratio - runs["progress_ratio"].values[check_idx])
         runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
         runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
         runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
         runs.attrs["check_max_abs_ratio_diff"] = float(np.nanmax(d)) if np.isfinite(d).any() else math.nan
         runs = runs.assign_coords(check=np.arange(len(check_idx)))
-        runs["check"].attrs.update({"units": "1", "long_name": "index of a numerical-check run"})
+        runs["check"].attrs.update(GRID_CHECK_VARIABLES["check"])
     if "run" in runs.coords:
-        runs["run"].attrs.update({"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"})
+        runs["run"].attrs.update(GRID_CHECK_VARIABLES["run"])
     runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
     runs.attrs["dt"] = study_dt(cfg)
     return runs
@@ -129,7 +123,7 @@ def assemble_critical(
     n = des.sizes["run"]
     runs = _with_outcomes(des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
     runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
-    runs["run"].attrs.update({"units": "1", "long_name": "run index (one parameter sample each)"})
+    runs["run"].attrs.update(CRITICAL_CHECK_VARIABLES["run"])
     lo, hi = cfg.incline_range
     th = np.array(check_inclines(cfg))
     runs.attrs.update(
@@ -152,61 +146,27 @@ def assemble_critical(
         # a verdict sequence along the incline is monotone if it never climbs after a failure
         nonmono = np.array([bool(np.any(np.diff(row[okr].astype(int)) > 0)) for row, okr in zip(g, ok, strict=True)])
         runs = runs.assign_coords(check=np.arange(len(check_idx)), check_incline_deg=th)
-        runs["check"].attrs.update({"units": "1", "long_name": "index of a check run"})
-        runs["check_incline_deg"].attrs.update({"units": "degree", "long_name": "grid incline of the monotonicity check"})
+        runs["check"].attrs.update(CRITICAL_CHECK_VARIABLES["check"])
+        runs["check_incline_deg"].attrs.update(CRITICAL_CHECK_VARIABLES["check_incline_deg"])
         runs["check_run"] = ("check", check_idx)
-        runs["check_run"].attrs.update({"units": "1", "long_name": "index (along run) of a checked sample"})
+        runs["check_run"].attrs.update(CRITICAL_CHECK_VARIABLES["check_run"])
         runs["check_grid_climbed"] = (("check", "check_incline_deg"), g)
-        runs["check_grid_climbed"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdict of a direct simulation at the grid incline",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "no yes",
-            }
-        )
+        runs["check_grid_climbed"].attrs.update(CRITICAL_CHECK_VARIABLES["check_grid_climbed"])
         runs["check_grid_status"] = (("check", "check_incline_deg"), gs)
-        runs["check_grid_status"].attrs.update(
-            {"units": "1", "long_name": "status of the direct simulation at the grid incline", **STATUS_FLAGS}
-        )
+        runs["check_grid_status"].attrs.update(CRITICAL_CHECK_VARIABLES["check_grid_status"])
         runs["check_disagree"] = (("check", "check_incline_deg"), dis.astype(np.int8))
-        runs["check_disagree"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "direct verdict differs from incline <= critical_incline_deg",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "agree disagree",
-            }
-        )
+        runs["check_disagree"].attrs.update(CRITICAL_CHECK_VARIABLES["check_disagree"])
         runs["check_nonmonotone"] = ("check", nonmono.astype(np.int8))
-        runs["check_nonmonotone"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "sample climbs a grid incline steeper than one it fails",
-                "flag_values": np.array([0, 1], dtype=np.int8),
-                "flag_meanings": "monotone nonmonotone",
-            }
-        )
+        runs["check_nonmonotone"].attrs.update(CRITICAL_CHECK_VARIABLES["check_nonmonotone"])
         pc, pf = check["pair_climbed"][pos].astype(np.int8), check["pair_climbed_fine"][pos].astype(np.int8)
         compared = np.all((check["pair_status_fine"][pos] == 0) & (check["pair_status"][pos] == 0), axis=1)
         agree = np.where(compared, np.all(pc == pf, axis=1).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
-        runs["check_agree"].attrs.update(
-            {
-                "units": "1",
-                "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor (compared only where all four runs are valid)",
-                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                "flag_meanings": "not_compared no yes",
-            }
-        )
+        runs["check_agree"].attrs.update(CRITICAL_CHECK_VARIABLES["check_agree"])
         runs["check_climbed_fine"] = (("check", "pair"), pf)
-        runs["check_climbed_fine"].attrs.update(
-            {"units": "1", "long_name": "verdicts at dt / check_dt_factor at the inclines check_pair_incline_deg"}
-        )
+        runs["check_climbed_fine"].attrs.update(CRITICAL_CHECK_VARIABLES["check_climbed_fine"])
         runs["check_pair_incline_deg"] = (("check", "pair"), check["pair_incline"][pos])
-        runs["check_pair_incline_deg"].attrs.update(
-            {"units": "degree", "long_name": "last climbing and first failing grid incline of the direct simulation"}
-        )
+        runs["check_pair_incline_deg"].attrs.update(CRITICAL_CHECK_VARIABLES["check_pair_incline_deg"])
         n_ok = int(ok.sum())
         runs.attrs["monotonicity_disagreement_rate"] = float(dis.sum() / n_ok) if n_ok else math.nan
         runs.attrs["monotonicity_nonmonotone_samples"] = int(nonmono.sum())

@@ -1,4 +1,5 @@
-"""TODO docstring (split from tumblemc/sampling.py)."""
+"""Value checkers of study configs: each returns the checked value or raises one
+:class:`ConfigError` naming the key path, the value and what is allowed."""
 
 from __future__ import annotations
 

@@ -1,4 +1,7 @@
-"""TODO docstring (split from tumblemc/sampling.py)."""
+"""A study's design: run keys, seeded uniforms per run (``mc``, ``sobol``, ``lhs``), the
+run table (:func:`design`), the keyword rows handed to the batch path, the time grid and
+the numerical-check subset. Randomness is data: a run's draw depends only on the root
+seed and the run's identity."""
 
 from __future__ import annotations
 
@@ -6,14 +9,14 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import xarray as xr
 from scipy.stats import qmc
 
 from tumblemc.model.params import RANGES
-from tumblemc.model.rows import TimeGrid
+from tumblemc.model.rows import RunRow, TimeGrid
 from tumblemc.model.run import DEFAULT_DT
 from tumblemc.schema import COORD_ATTRS
 from tumblemc.study.checks import is_number
@@ -194,7 +197,7 @@ def params_for_run(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> 
     return {u.param: float(_scalar(row, u.param)) for u in config.uncertain if u.param != "field_mT"}
 
 
-def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
+def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRow:
     """The keywords of one run that differ from run to run (a row of
     :func:`tumblemc.batch.simulate_rows`): preset, incline, field (the sampled one if
     ``field_mT`` is uncertain), frequency and :func:`params_for_run`."""
@@ -204,7 +207,7 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[
         out["incline_deg"] = float(_scalar(row, "incline_deg"))
     out["field_mT"] = float(_scalar(row, field_name))
     out["freq_hz"] = float(_scalar(row, "freq_hz"))
-    return {**out, **params_for_run(config, row)}
+    return cast(RunRow, {**out, **params_for_run(config, row)})
 
 
 def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:

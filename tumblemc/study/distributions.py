@@ -1,4 +1,8 @@
-"""TODO docstring (split from tumblemc/sampling.py)."""
+"""Uncertain parameters of a study: the ``[uncertain.<param>]`` tables parsed into
+:class:`Uncertain`, resolved around a preset's nominal value into a
+:class:`ParamDistribution` restricted to the parameter's physical range
+(:data:`tumblemc.model.params.RANGES`). The TOML forms are documented in
+:mod:`tumblemc.study.config`."""
 
 from __future__ import annotations
 

@@ -1,4 +1,6 @@
-"""TODO docstring (split from tumblemc/sensitivity.py)."""
+"""End-to-end Sobol sensitivity of the robot: Saltelli rows through the simulator
+(:func:`sobol_rows`, :func:`robot_sobol`). The estimators themselves, which never
+simulate, are in :mod:`tumblemc.analysis.sobol`."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""TODO docstring (split from tumblemc/shapes.py)."""
+"""The paper's four robot shapes (MODEL.md, "Shapes"): :func:`cuboid`, :func:`spiked`,
+:func:`spiked_ends` and :func:`curved`, the :data:`SHAPES` registry and :func:`get_shape`."""
 
 from __future__ import annotations
 
