@@ -24,8 +24,11 @@ INCLINES = (0.0, 15.0, 30.0, 45.0)
 
 
 def synthetic_runs(seed: int = 7, per_cell: int = 12, fields: tuple[float, ...] = (10.0,), check: bool = True) -> xr.Dataset:
-    """A runs Dataset with the study's schema: outcomes depend on incline and substrate,
-    some runs fail (status 1..3), one cell has no valid run, one cell is all successes."""
+    """Build a runs Dataset with the study's schema.
+
+    Outcomes depend on incline and substrate, some runs fail (status 1..3), one cell has
+    no valid run, one cell is all successes.
+    """
     rng = np.random.default_rng(seed)
     rows = list(itertools.product(SHAPES, SUBSTRATES, INCLINES, fields, range(per_cell)))
     n = len(rows)

@@ -45,8 +45,10 @@ def _gif_frames(path: Path) -> tuple[int, tuple[int, int], list[int]]:
 
 
 def _slide(ds: xr.Dataset, distance_m: float) -> xr.Dataset:
-    """``ds`` with a uniform downhill drift of ``distance_m`` added over the run: a robot
-    that slides metres, without simulating one."""
+    """``ds`` with a uniform downhill drift of ``distance_m`` added over the run.
+
+    A robot that slides metres, without simulating one.
+    """
     u = plane_frame(float(ds.attrs["incline_deg"]))["u"]
     t = ds["time"].values
     shift = -distance_m * (t - t[0]) / (t[-1] - t[0])

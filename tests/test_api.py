@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -57,7 +58,7 @@ def test_presets_are_the_paper_tables() -> None:
         51835.0,
         26.1771,
     )
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         p.mu = 1.0  # type: ignore[misc]
 
 

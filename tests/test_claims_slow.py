@@ -123,10 +123,13 @@ def test_curved_aluminum_45_deg_no_failed_steps() -> None:
 
 @pytest.mark.slow
 def test_loose_steps_keep_a_stalled_residual() -> None:
-    """The curved robot on 35 deg aluminum slides at ~1 m/s; at a lift-off the residual
+    """Loose steps are kept with accept_tol and fail without it.
+
+    The curved robot on 35 deg aluminum slides at ~1 m/s; at a lift-off the residual
     stalls at ~1e-9, just above tol, and its floor grows as the sub-step shrinks. With
     accept_tol (default) such steps are kept as loose steps; with accept_tol = 0 (every
-    unsolved step fails, the behaviour before) the same run has a failed step."""
+    unsolved step fails, the behaviour before) the same run has a failed step.
+    """
     kw = dict(shape="curved", preset="aluminum", incline_deg=35.0, duration_s=2.0)
     loose = tumblemc.summarize(tumblemc.simulate(**kw))
     assert loose["failed_steps"] == 0
@@ -145,12 +148,15 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
 def test_face_landing_within_a_short_step_is_solved(
     shape: str, incline_deg: float, mu: float, adhesion_C: float, offset_deg: float, magnetization: float, failed_at_s: float
 ) -> None:
-    """Runs of the default study's dt/4 check on paper: a nearly flat face lands within one
+    """A face landing within one short step is solved (the snap guess).
+
+    Runs of the default study's dt/4 check on paper: a nearly flat face lands within one
     1.25e-5 s step while the robot pivots about its edge (for the curved robot, the face
     next to its arc). Every earlier strategy stalls at a negative multiplier of the other
     face of that edge, at each sub-step size; the snap guess (strategy 4,
     stepper._snap_flat) solves it. Before that guess these runs stopped with a failed step
-    at ``failed_at_s``."""
+    at ``failed_at_s``.
+    """
     kw = dict(mu=mu, adhesion_C=adhesion_C, offset_deg=offset_deg, magnetization=magnetization)
     ds = tumblemc.simulate(shape=shape, preset="paper", incline_deg=incline_deg, duration_s=failed_at_s + 0.03, dt=1.25e-5, **kw)
     assert int(ds.failed.sum()) == 0

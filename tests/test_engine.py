@@ -1,5 +1,8 @@
-"""The Monte Carlo engine: batch kernel against simulate, determinism across schedulers and
-batch sizes, crash-safe resume, refusal of a changed config, the file's metadata."""
+"""Tests of the Monte Carlo engine.
+
+Batch kernel against simulate, determinism across schedulers and batch sizes, crash-safe
+resume, refusal of a changed config, the file's metadata.
+"""
 
 from __future__ import annotations
 
@@ -73,8 +76,10 @@ def test_batch_rows_equal_simulate_and_summarize() -> None:
 
 
 def test_batch_and_simulate_count_the_same_loose_steps() -> None:
-    """The curved robot sliding down 35 deg aluminum has loose steps (SolverOptions.accept_tol):
-    the batch kernel's runs table and simulate/summarize must count the same ones."""
+    """The batch kernel and simulate/summarize count the same loose steps.
+
+    The curved robot sliding down 35 deg aluminum has loose steps (SolverOptions.accept_tol).
+    """
     row = {"preset": "aluminum", "incline_deg": 35.0, "field_mT": 20.0, "freq_hz": 1.0}
     res = simulate_rows("curved", [row], TimeGrid(periods=2.0, transient_periods=1.0))
     s = tumblemc.summarize(tumblemc.simulate(shape="curved", duration_s=2.0, **row))
@@ -326,8 +331,11 @@ def test_critical_incline_mode_brackets_and_checks(tmp_path: Path) -> None:
 
 
 def test_interrupted_fresh_run_resumes_over_an_old_result(reference: Path, tmp_path: Path) -> None:
-    """An old result of config A and the shards of an interrupted --fresh run of config B:
-    running B again (without --fresh) continues B instead of refusing."""
+    """Running B again (without --fresh) continues B instead of refusing.
+
+    The setting: an old result of config A and the shards of an interrupted --fresh run
+    of config B.
+    """
     from tumblemc.io import ShardStore
     from tumblemc.study.config import config_hash, config_to_json
 
@@ -367,8 +375,10 @@ def test_critical_mode_needs_two_check_inclines_in_range() -> None:
 
 
 def test_a_critical_check_task_that_raises_keeps_every_column(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The error row of a critical study's check task has the same columns as a normal one
-    (the shards of a task are concatenated column by column)."""
+    """The error row of a critical study's check task has the same columns as a normal one.
+
+    The shards of a task are concatenated column by column.
+    """
     import tumblemc.study.engine as eng
 
     def boom(*args: Any, **kw: Any) -> Any:

@@ -1,5 +1,8 @@
-"""The notebooks in notebooks/ run from top to bottom on the shipped data (slow tier), and
-are committed without outputs (fast tier)."""
+"""Tests of the notebooks in notebooks/.
+
+They run from top to bottom on the shipped data (slow tier) and are committed without
+outputs (fast tier).
+"""
 
 from __future__ import annotations
 

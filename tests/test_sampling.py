@@ -351,8 +351,10 @@ STAT_UNCERTAIN = {
 
 @pytest.mark.parametrize("sampler", ["mc", "sobol", "lhs"])
 def test_sampled_moments_and_shapes(sampler: str) -> None:
-    """Sample mean and sd within N_SE standard errors of the distribution's; K-S p-value
-    above KS_P_MIN. Fixed seed: a deterministic check of a draw of 4096."""
+    """Sample mean and sd within N_SE standard errors; K-S p-value above KS_P_MIN.
+
+    Fixed seed: a deterministic check of a draw of 4096.
+    """
     n = 4096
     c = cfg(sampler=sampler, samples=n, incline_deg=[0], uncertain=STAT_UNCERTAIN)
     ds = design(c)
@@ -403,7 +405,7 @@ def test_bounds_hold_for_many_samples() -> None:
 
 
 def test_normal_truncation_rule_threshold() -> None:
-    """normal is allowed exactly when at most NEGLIGIBLE_MASS lies outside the range."""
+    """``normal`` is allowed exactly when at most NEGLIGIBLE_MASS lies outside the range."""
     z = -stats.norm.ppf(NEGLIGIBLE_MASS)  # the bound this many sd from the mean
     mu = PRESETS["aluminum"].mu
     cfg(uncertain={"mu": {"dist": "normal", "sd": mu / z * 0.99}})

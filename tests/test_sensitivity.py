@@ -300,8 +300,10 @@ def test_sensitivity_plots_write_png(tmp_path: Path) -> None:
 
 
 def test_robot_sobol_end_to_end_small() -> None:
-    """The robot path runs and returns indices for every uncertain parameter (a smoke
-    test of the plumbing: n = 4 is far too small for meaningful values)."""
+    """The robot path runs and returns indices for every uncertain parameter.
+
+    A smoke test of the plumbing: n = 4 is far too small for meaningful values.
+    """
     from tumblemc.study.config import load_config
     from tumblemc.study.sobol import robot_sobol
 

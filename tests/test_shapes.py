@@ -199,8 +199,11 @@ def test_extruded_is_frame_and_orientation_free() -> None:
 
 @st.composite
 def profiles(draw: st.DrawFn) -> np.ndarray:
-    """A random simple polygon in metres: convex (hull of random points) or star-shaped
-    (angles sorted about the origin, consecutive gaps < pi; usually non-convex)."""
+    """Draw a random simple polygon in metres.
+
+    Convex (hull of random points) or star-shaped (angles sorted about the origin,
+    consecutive gaps < pi; usually non-convex).
+    """
     scale = draw(st.floats(50e-6, 2e-3))
     if draw(st.booleans()):
         pts = np.array(draw(st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=3, max_size=12)))
@@ -265,8 +268,11 @@ def test_extruded_hull_of_random_profiles(poly: np.ndarray, data: st.DataObject)
 
 
 def _dense_outline(poly: np.ndarray, arcs: dict[int, float], n: int = 4000) -> np.ndarray:
-    """The outline with every arc replaced by ``n`` chords (an independent construction:
-    the minor arc through both ends, bulging to the right of a CCW edge if radius > 0)."""
+    """The outline with every arc replaced by ``n`` chords.
+
+    An independent construction: the minor arc through both ends, bulging to the right
+    of a CCW edge if radius > 0.
+    """
     ccw = np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1]) > 0
     out = []
     for i in range(len(poly)):
@@ -467,8 +473,10 @@ def test_inertia_of_a_circular_sector_is_the_closed_form() -> None:
 
 
 def test_inertia_of_a_non_convex_profile_with_arcs_by_monte_carlo() -> None:
-    """Volume integral by uniform sampling (1e6 points, fixed seed): each estimate within
-    4 standard errors of the exact integrals."""
+    """Volume integrals by uniform sampling agree with the exact ones.
+
+    1e6 points, fixed seed: each estimate within 4 standard errors of the exact integrals.
+    """
     prof, a, b, T = NOTCHED, A, B, T_MC
     shp = extruded(prof, T, arcs=NOTCHED_ARCS, mass_from="profile")
 
@@ -530,9 +538,12 @@ def test_plot_shapes_writes_png(tmp_path) -> None:  # type: ignore[no-untyped-de
 
 
 def test_an_inward_arc_leaving_a_sharp_tip_outside_its_neighbour_is_refused() -> None:
-    """Regression (found by the property test above): an inward arc on one side of a tall
-    diamond starts 0.5 deg beyond the tip's 28 deg opening, crosses the neighbouring edge
-    and comes back within the outline's sampling step."""
+    """Regression, found by the property test above.
+
+    An inward arc on one side of a tall diamond starts 0.5 deg beyond the tip's 28 deg
+    opening, crosses the neighbouring edge and comes back within the outline's sampling
+    step.
+    """
     poly = np.array([[0.0, 1.953125e-3], [-4.8828125e-4, 0.0], [0.0, -1.953125e-3], [4.8828125e-4, 0.0]])
     chord = float(np.linalg.norm(poly[1] - poly[0]))
     with pytest.raises(ValueError, match="self-intersecting with the arcs"):

@@ -64,8 +64,10 @@ def test_batch_and_summarize_agree_on_the_same_run(climbing_run: xr.Dataset) -> 
 
 
 def test_maps_count_invalid_runs_as_neither(climbing_run: xr.Dataset) -> None:
-    """A run with failed steps and a ratio above the threshold is not a success in the
-    maps, whatever its stored ``climbed`` says."""
+    """A run with failed steps and a ratio above the threshold is not a success in the maps.
+
+    Whatever its stored ``climbed`` says.
+    """
     n = 4
     runs = xr.Dataset(
         {

@@ -1,4 +1,19 @@
-"""TODO docstring (split from tumblemc/sensitivity.py)."""
+"""Scenario discovery with PRIM: where in parameter space the robot fails (analysis layer).
+
+:func:`prim_box` peels a box of parameter space where a target outcome concentrates
+(Friedman & Fisher 1999) from any array of inputs and outcomes; :func:`failure_region`
+applies it to one cell of a study's runs, with the failures to climb as targets. The
+result, :class:`PrimResult`, holds the chosen box and the whole peeling trajectory
+(coverage against density), which :func:`tumblemc.viz.sensitivity.plot_prim` draws.
+
+Nothing here runs the simulator. :func:`tumblemc.testing.box_failure` is a benchmark with
+a known box.
+
+References
+----------
+Friedman, J. H. & Fisher, N. I. (1999). Bump hunting in high-dimensional data.
+Statistics and Computing 9, 123-143.
+"""
 
 from __future__ import annotations
 
@@ -67,20 +82,27 @@ def prim_box(
     target: float = 1,
     threshold: float | None = None,
 ) -> PrimResult:
-    """PRIM peeling: a box in parameter space where ``y == target`` is concentrated.
+    """Peel a box of parameter space where ``y == target`` concentrates (PRIM).
 
     Parameters
     ----------
-    X : (n, d) float array of finite inputs.
-    y : (n,) outcomes; the points with ``y == target`` are the targets (e.g. failures).
-    names : d parameter names.
-    alpha : fraction of the box's points peeled per step, in (0, 0.5).
-    min_support : peeling stops before the box holds fewer than this fraction of all
-        points, in (0, 1).
-    target : the outcome value sought.
-    threshold : choose the first (largest) box whose density reaches this; None (or
-        when none does): the first box whose density is within one binomial standard
-        error of the peak density along the trajectory.
+    X : (n, d) array_like of float
+        Inputs, all finite, columns in ``names`` order.
+    y : (n,) array_like
+        Outcomes; the points with ``y == target`` are the targets (e.g. failures).
+    names : sequence of d str
+        Parameter names.
+    alpha : float
+        Fraction of the box's points peeled per step, in (0, 0.5).
+    min_support : float
+        Peeling stops before the box holds fewer than this fraction of all points, in
+        (0, 1).
+    target : float
+        The outcome value sought.
+    threshold : float, optional
+        Choose the first (largest) box whose density reaches this. None (or when no box
+        does): the first box whose density is within one binomial standard error of the
+        peak density along the trajectory.
 
     Returns
     -------
@@ -225,11 +247,19 @@ def failure_region(
 
     Parameters
     ----------
-    runs : study Dataset.
-    shape, substrate, incline_deg : the cell (``incline_deg`` in degree).
-    field_mT, freq_hz : needed when the study sweeps them.
-    parameters : parameter names (default ``runs.attrs["uncertain"]``).
-    alpha, min_support, threshold : see :func:`prim_box`.
+    runs : Dataset
+        Study runs (dim ``run``): ``status``, ``climbed``, the cell coordinates and the
+        uncertain parameters.
+    shape, substrate : str
+        The cell's shape and substrate.
+    incline_deg : float
+        The cell's incline, degree.
+    field_mT, freq_hz : float, optional
+        The field setting (mT, Hz); needed when the study sweeps it.
+    parameters : sequence of str, optional
+        Parameter names (default ``runs.attrs["uncertain"]``).
+    alpha, min_support, threshold : float
+        See :func:`prim_box`.
 
     Returns
     -------

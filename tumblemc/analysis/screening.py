@@ -1,4 +1,26 @@
-"""TODO docstring (split from tumblemc/sensitivity.py)."""
+"""Screening of a Monte Carlo study: which uncertain parameters matter, per cell (analysis layer).
+
+Works on the ``runs`` table of any study, whatever its sampler, one cell (shape,
+substrate, incline and any swept field setting) at a time:
+
+- :func:`rank_correlation`: Spearman correlation of each parameter with an outcome, with
+  Fisher-z intervals;
+- :func:`logistic_summary`: penalized logistic regression of a binary outcome
+  (``climbed``) on the standardized parameters, with separation flagged.
+
+It also holds the helpers the other per-cell analyses share: the uncertain parameters of
+a study (:func:`uncertain_parameters`), its valid runs (:func:`valid_mask`) and the runs
+of one cell (:func:`cell_mask`). Results are :class:`xarray.Dataset` objects over the cell
+coordinates and ``parameter``, with ``units`` and ``long_name`` on every variable. Nothing
+here runs the simulator.
+
+References
+----------
+Albert, A. & Anderson, J. A. (1984). On the existence of maximum likelihood estimates in
+logistic regression models. Biometrika 71, 1-10.
+Fieller, E. C., Hartley, H. O. & Pearson, E. S. (1957). Tests for rank correlation
+coefficients. I. Biometrika 44, 470-481.
+"""
 
 from __future__ import annotations
 
@@ -26,7 +48,26 @@ RIDGE = 1e-2
 
 
 def uncertain_parameters(runs: xr.Dataset, parameters: Sequence[str] | None) -> list[tuple[str, str]]:
-    """(parameter, run-table variable) pairs of the uncertain parameters."""
+    """Pair each uncertain parameter with its variable in the run table.
+
+    Parameters
+    ----------
+    runs : Dataset
+        Study runs (dim ``run``).
+    parameters : sequence of str or None
+        Parameter names; None takes those named in ``runs.attrs["uncertain"]``.
+
+    Returns
+    -------
+    list of (str, str)
+        ``(parameter, variable)`` pairs; the variable differs from the parameter for a
+        parameter that is also a cell coordinate (``field_mT`` -> ``field_mT_sampled``).
+
+    Raises
+    ------
+    ValueError
+        If no parameter is named, or one has no per-run variable.
+    """
     if parameters is None:
         names = [s.strip() for s in str(runs.attrs.get("uncertain", "")).split(",") if s.strip()]
         if not names:
@@ -55,13 +96,26 @@ def _by(runs: xr.Dataset, by: Sequence[str] | None) -> list[str]:
 
 
 def _groups(runs: xr.Dataset, dims: Sequence[str]) -> tuple[dict[str, np.ndarray], tuple[int, ...], list[np.ndarray]]:
-    """Sorted unique values per dim, the grid shape, and the run indices of each cell
-    (C order over the grid): :func:`tumblemc.analysis.cell_groups`."""
+    """Sorted unique values per dim, the grid shape, and the run indices of each cell.
+
+    Cells are in C order over the grid (:func:`tumblemc.analysis.maps.cell_groups`).
+    """
     values, shape, _, groups = cell_groups(runs, dims)
     return values, shape, groups
 
 
 def valid_mask(runs: xr.Dataset) -> np.ndarray:
+    """Boolean mask over ``run`` of the valid runs (``status == 0``).
+
+    Parameters
+    ----------
+    runs : Dataset
+        Study runs with a ``status`` variable.
+
+    Returns
+    -------
+    (n_run,) bool array
+    """
     if "status" not in runs.variables:
         raise ValueError("runs has no 'status' variable (0 = valid run)")
     return is_valid(runs["status"].values)
@@ -94,11 +148,15 @@ def rank_correlation(
     runs : Dataset
         Study results (dim ``run``; ``status``, the outcome and the uncertain parameters
         named in ``attrs["uncertain"]``).
-    by : cell coordinates; default ``("shape", "substrate", "incline_deg")`` plus
+    by : sequence of str, optional
+        Cell coordinates; default ``("shape", "substrate", "incline_deg")`` plus
         ``field_mT``/``freq_hz`` when the study sweeps them.
-    outcome : per-run variable, e.g. ``"progress_ratio"`` or ``"climbed"``.
-    parameters : parameter names (default: ``runs.attrs["uncertain"]``).
-    level : confidence level of ``rho_lower``/``rho_upper``.
+    outcome : str
+        Per-run variable, e.g. ``"progress_ratio"`` or ``"climbed"``.
+    parameters : sequence of str, optional
+        Parameter names (default: ``runs.attrs["uncertain"]``).
+    level : float
+        Confidence level of ``rho_lower``/``rho_upper``, in (0, 1).
 
     Returns
     -------
@@ -215,8 +273,10 @@ def _fit_logit(Z: np.ndarray, y: np.ndarray, ridge: float) -> _LogitFit:
 
 
 def _separable(Z: np.ndarray, y: np.ndarray) -> bool:
-    """Whether a hyperplane separates the classes completely (Albert & Anderson 1984):
-    the linear program ``(2 y - 1)(b + Z w) >= 1`` is feasible."""
+    """Whether a hyperplane separates the classes completely (Albert & Anderson 1984).
+
+    That is, whether the linear program ``(2 y - 1)(b + Z w) >= 1`` is feasible.
+    """
     n, d = Z.shape
     X = np.column_stack([np.ones(n), Z])
     A_ub = -(2.0 * y - 1.0)[:, None] * X
@@ -239,14 +299,19 @@ def logistic_summary(
     ----------
     runs : Dataset
         Study results (see :func:`rank_correlation`).
-    by : cell coordinates (default as :func:`rank_correlation`).
-    outcome : per-run 0/1 variable (``climbed``).
-    parameters : parameter names (default: ``runs.attrs["uncertain"]``).
-    ridge : precision of the Gaussian prior ``N(0, 1 / ridge)`` on the intercept and
-        each standardized coefficient (a ridge penalty ``ridge |beta|^2 / 2``), > 0. The
+    by : sequence of str, optional
+        Cell coordinates (default as :func:`rank_correlation`).
+    outcome : str
+        Per-run 0/1 variable (``climbed``).
+    parameters : sequence of str, optional
+        Parameter names (default: ``runs.attrs["uncertain"]``).
+    ridge : float
+        Precision of the Gaussian prior ``N(0, 1 / ridge)`` on the intercept and each
+        standardized coefficient (a ridge penalty ``ridge |beta|^2 / 2``), > 0. The
         default 0.01 (prior SD of 10 log-odds per SD) barely moves coefficients that the
         data determine and keeps them finite under separation.
-    level : confidence level of the Wald intervals ``coef +- z se``.
+    level : float
+        Confidence level of the Wald intervals ``coef +- z se``, in (0, 1).
 
     Returns
     -------
@@ -376,9 +441,29 @@ def cell_mask(
     field_mT: float | None = None,
     freq_hz: float | None = None,
 ) -> np.ndarray:
-    """Boolean mask over ``run`` of the runs of one cell (``incline_deg=None``: every
-    incline). A study that sweeps the field or the frequency needs ``field_mT=`` /
-    ``freq_hz=``: runs of different field settings are never pooled."""
+    """Boolean mask over ``run`` of the runs of one cell.
+
+    Parameters
+    ----------
+    runs : Dataset
+        Study runs (dim ``run``) with the cell coordinates.
+    shape, substrate : str
+        The cell's shape and substrate.
+    incline_deg : float, optional
+        The cell's incline, degree; None takes every incline.
+    field_mT, freq_hz : float, optional
+        The field setting (mT, Hz). A study that sweeps the field or the frequency needs
+        them: runs of different field settings are never pooled.
+
+    Returns
+    -------
+    (n_run,) bool array
+
+    Raises
+    ------
+    ValueError
+        If no run matches, or the runs matched span several field settings.
+    """
     mask = (np.asarray(runs["shape"].values).astype(str) == shape) & (np.asarray(runs["substrate"].values).astype(str) == substrate)
     for name, v in (("incline_deg", incline_deg), ("field_mT", field_mT), ("freq_hz", freq_hz)):
         if v is not None:

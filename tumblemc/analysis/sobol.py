@@ -1,31 +1,28 @@
-"""Sensitivity analysis and scenario discovery: which uncertain parameters decide success.
+"""Variance-based sensitivity: Saltelli sampling and Sobol indices (analysis layer).
 
-Three steps, kept apart as in SALib (sampling, running, analysis):
+Sensitivity analysis is kept in three steps, as in SALib:
 
 1. **Sampling** (no simulation): :func:`saltelli_design` draws the Saltelli matrices
-   ``A``, ``B`` and ``AB_i`` on the unit hypercube from one scrambled Sobol sequence;
-   :func:`sobol_rows` maps them through a study config's distributions into
-   ``tumblemc.simulate`` keyword rows for one cell (:func:`map_unit_samples` does the
-   mapping alone).
-2. **Running**: the caller's (``simulate(**row)`` per row, or the engine).
-3. **Analysis**: :func:`split_saltelli` and :func:`sobol_indices` (variance-based
-   first-order and total indices with bootstrap intervals); and for any existing Monte
-   Carlo study, whatever its sampler: :func:`rank_correlation` (Spearman),
-   :func:`logistic_summary` (per-cell logistic regression of ``climbed``) and
-   :func:`prim_box` / :func:`failure_region` (PRIM boxes where failures concentrate).
+   ``A``, ``B`` and ``AB_i`` on the unit hypercube from one scrambled Sobol sequence.
+2. **Running**: elsewhere. :mod:`tumblemc.study.sobol` maps a design through a study
+   config's distributions and runs it on the robot; an analytic function of
+   :mod:`tumblemc.testing` evaluates it in microseconds.
+3. **Analysis** (here): :func:`split_saltelli` takes the outputs of the stacked design
+   apart and :func:`sobol_indices` estimates first-order and total indices with
+   bootstrap intervals.
 
-Per-cell analyses return an :class:`xarray.Dataset` with the cell coordinates as dims
-plus ``parameter``; every variable has ``units`` and ``long_name``. Only valid runs
-(``status == 0``) are used.
+For an existing Monte Carlo study, whatever its sampler, :mod:`tumblemc.analysis.screening`
+(rank correlation, logistic regression) and :mod:`tumblemc.analysis.prim` (PRIM boxes
+where failures concentrate) answer the same question without a dedicated design.
 
-The analytic problems that check these estimators live in :mod:`tumblemc.testing`.
+Nothing here runs the simulator: inputs are arrays of outputs, results are an
+:class:`xarray.Dataset` over ``parameter`` with ``units`` and ``long_name`` on every
+variable.
 
 References
 ----------
 Archer, G. E. B., Saltelli, A. & Sobol', I. M. (1997). Sensitivity measures, ANOVA-like
 techniques and the use of bootstrap. J. Statist. Comput. Simul. 58, 99-120.
-Friedman, J. H. & Fisher, N. I. (1999). Bump hunting in high-dimensional data.
-Statistics and Computing 9, 123-143.
 Jansen, M. J. W. (1999). Analysis of variance designs for model output. Computer Physics
 Communications 117, 35-43.
 Saltelli, A. (2002). Making best use of model evaluations to compute sensitivity
@@ -33,8 +30,7 @@ indices. Computer Physics Communications 145, 280-297.
 Saltelli, A., Annoni, P., Azzini, I., Campolongo, F., Ratto, M. & Tarantola, S. (2010).
 Variance based sensitivity analysis of model output. Design and estimator for the total
 sensitivity index. Computer Physics Communications 181, 259-270.
-Fieller, E. C., Hartley, H. O. & Pearson, E. S. (1957). Tests for rank correlation
-coefficients. I. Biometrika 44, 470-481.
+
 """
 
 from __future__ import annotations
@@ -65,10 +61,12 @@ class SaltelliDesign(NamedTuple):
 
     @property
     def n(self) -> int:
+        """Base sample size (rows of ``A``)."""
         return int(self.A.shape[0])
 
     @property
     def d(self) -> int:
+        """Number of inputs (columns of ``A``)."""
         return int(self.A.shape[1])
 
     def stack(self) -> np.ndarray:
@@ -133,17 +131,26 @@ def saltelli_design(n: int, d: int, seed: int) -> SaltelliDesign:
 
 
 def split_saltelli(y: ArrayLike, d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Outputs of :meth:`SaltelliDesign.stack` rows taken apart.
+    """Take the outputs at the rows of :meth:`SaltelliDesign.stack` apart.
 
     Parameters
     ----------
-    y : (n (d + 2),) float array, outputs in the row order of the stacked matrix.
-    d : number of inputs.
+    y : (n (d + 2),) float array
+        Outputs in the row order of the stacked matrix.
+    d : int
+        Number of inputs, >= 1.
 
     Returns
     -------
-    yA, yB : (n,) float64 arrays
-    yAB : (d, n) float64 array, ``yAB[i]`` the outputs at ``AB[i]``.
+    yA, yB : (n,) float64 array
+        Outputs at the rows of ``A`` and ``B``.
+    yAB : (d, n) float64 array
+        ``yAB[i]`` holds the outputs at ``AB[i]``.
+
+    Raises
+    ------
+    ValueError
+        If ``y`` does not hold a whole number of ``d + 2``-row blocks.
     """
     v = np.asarray(y, dtype=np.float64).ravel()
     if d < 1 or v.size % (d + 2):
@@ -182,11 +189,15 @@ def sobol_indices(
         Model outputs at the rows of ``A`` and ``B`` (:func:`saltelli_design`).
     yAB : (d, n) float array
         Outputs at ``AB[i]`` (``A`` with column ``i`` from ``B``).
-    names : d parameter names (default ``x1 ... xd``).
-    n_boot : bootstrap replicates (rows resampled with replacement), >= 0; 0 skips the
+    names : sequence of d str, optional
+        Parameter names (default ``x1 ... xd``).
+    n_boot : int
+        Bootstrap replicates (rows resampled with replacement), >= 0; 0 skips the
         intervals (they are NaN).
-    level : confidence level of the percentile intervals, in (0, 1).
-    seed : seed of the bootstrap resampling.
+    level : float
+        Confidence level of the percentile intervals, in (0, 1).
+    seed : int
+        Seed of the bootstrap resampling.
 
     Returns
     -------
