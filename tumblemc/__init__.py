@@ -1,5 +1,6 @@
-"""tumblemc: non-point-contact simulation and Monte Carlo robustness studies of tumbling
-magnetic microrobots (Xie, Bi, Cappelleri & Chakraborty, IDETC 2019).
+"""tumblemc: non-point-contact simulation and Monte Carlo robustness studies of tumbling magnetic microrobots.
+
+The model is that of Xie, Bi, Cappelleri & Chakraborty (IDETC 2019).
 
 The public API: :func:`simulate` and :func:`summarize` (one run), :func:`load_config`,
 :func:`run_study` and :func:`open_result` (studies), the shapes (:mod:`tumblemc.shapes`,

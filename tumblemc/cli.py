@@ -1,5 +1,6 @@
-"""Command line: ``tumblemc simulate | validate | study | shapes | animate | bench`` (also
-``python -m tumblemc``).
+"""Command line: ``tumblemc simulate | validate | study | shapes | animate | bench``.
+
+Also available as ``python -m tumblemc``.
 
 Examples::
 
@@ -43,9 +44,12 @@ class _UsageError(Exception):
 
 
 def parse_value(text: str) -> Any:
-    """``--set`` value: ``true``/``false`` -> bool, a number -> float, ``a,b,c`` -> tuple of
-    floats (e.g. ``offset_axis=1,0,0``); anything else stays a string (the API rejects it
-    with a message naming the parameter)."""
+    """Parse a ``--set`` value.
+
+    ``true``/``false`` -> bool, a number -> float, ``a,b,c`` -> tuple of floats (e.g.
+    ``offset_axis=1,0,0``); anything else stays a string (the API rejects it with a message
+    naming the parameter).
+    """
     low = text.strip().lower()
     if low in ("true", "yes", "on"):
         return True
@@ -81,8 +85,6 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
     return out
 
 
-
-
 def format_table(d: dict[str, Any]) -> str:
     """Aligned ``name  value`` lines."""
     if not d:
@@ -99,6 +101,7 @@ def format_table(d: dict[str, Any]) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """Build the ``tumblemc`` argument parser with its subcommands."""
     p = argparse.ArgumentParser(prog="tumblemc", description="Simulate tumbling magnetic microrobots (non-point contact).")
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
@@ -288,7 +291,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         a = crit_runs.attrs
         if "monotonicity_disagreement_rate" in a:
             print(
-                f"monotonicity check: {a['monotonicity_checked_samples']} samples at {crit_runs.sizes.get('check_incline_deg', 0)} grid inclines; "
+                f"monotonicity check: {a['monotonicity_checked_samples']} samples "
+                f"at {crit_runs.sizes.get('check_incline_deg', 0)} grid inclines; "
                 f"disagreement rate {a['monotonicity_disagreement_rate']:.3f}; non-monotone samples {a['monotonicity_nonmonotone_samples']}"
             )
         sims, grid_eq = int(a.get("simulations_total", 0)), int(a.get("simulations_grid_equivalent", 0))

@@ -104,8 +104,11 @@ class ShardStore:
         return path
 
     def read(self, kind: str) -> dict[str, np.ndarray]:
-        """All finished runs of ``kind``: concatenated columns sorted by run index, each run
-        once (a shard written twice, e.g. by a task that was retried, counts once)."""
+        """All finished runs of ``kind``.
+
+        Concatenated columns sorted by run index, each run once (a shard written twice,
+        e.g. by a task that was retried, counts once).
+        """
         cols: dict[str, list[np.ndarray]] = {}
         if not self.dir.exists():
             return {}
@@ -128,6 +131,7 @@ class ShardStore:
         return self.read(kind).get("run", np.zeros(0, np.int64))
 
     def remove(self) -> None:
+        """Delete the shard directory and everything in it."""
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
@@ -176,7 +180,6 @@ def _netcdf_safe(value: Any) -> Any:
     return value
 
 
-
 def netcdf_ready(ds: Any) -> Any:
     """A shallow copy of ``ds`` whose global and variable attrs are netCDF-safe."""
     out = ds.copy(deep=False)
@@ -186,10 +189,11 @@ def netcdf_ready(ds: Any) -> Any:
     return out
 
 
-
 def write_run(ds: xr.Dataset, path: str | Path) -> None:
-    """Write one run's Dataset (:func:`tumblemc.simulate`) to netCDF, compressed, with its
-    attributes made netCDF-safe (:func:`netcdf_ready`)."""
+    """Write one run's Dataset (:func:`tumblemc.simulate`) to netCDF, compressed.
+
+    Its attributes are made netCDF-safe first (:func:`netcdf_ready`).
+    """
     safe = netcdf_ready(ds)
     safe.to_netcdf(path, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
 

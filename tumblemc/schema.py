@@ -1,5 +1,7 @@
-"""The one schema of tumblemc outputs: every variable, coordinate and flag, with units,
-long_name, CF ``standard_name`` where one exists, and flag values and meanings.
+"""The one schema of tumblemc outputs.
+
+Every variable, coordinate and flag, with units, long_name, CF ``standard_name`` where
+one exists, and flag values and meanings.
 
 Declared here once and carried into Datasets by :func:`annotate` (or ``attrs.update``):
 a run's time series (:data:`RUN_VARIABLES`), a study's coordinates
@@ -53,8 +55,10 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
 
 
 def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) -> xr.Dataset:
-    """Attach the attributes of ``schema`` (default: a run's, :data:`RUN_VARIABLES`) to
-    every variable of ``ds`` it names (in place)."""
+    """Attach the attributes of ``schema`` to every variable of ``ds`` it names (in place).
+
+    ``schema`` defaults to a run's, :data:`RUN_VARIABLES`. Returns ``ds``.
+    """
     for name, attrs in (RUN_VARIABLES if schema is None else schema).items():
         if name in ds.variables:
             ds[name].attrs.update(attrs)
@@ -254,7 +258,10 @@ CRITICAL_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
     },
     "check_agree": {
         "units": "1",
-        "long_name": "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor (compared only where all four runs are valid)",
+        "long_name": (
+            "verdicts at the two grid inclines around the first failure equal those at dt / check_dt_factor"
+            " (compared only where all four runs are valid)"
+        ),
         "flag_values": np.array([-1, 0, 1], dtype=np.int8),
         "flag_meanings": "not_compared no yes",
     },

@@ -1,6 +1,8 @@
-"""Critical-incline results as functions of Datasets: the verdict at a given incline,
-the expansion onto a grid of inclines (so that :func:`tumblemc.analysis.maps.maps`
-applies) and the comparison with a grid study."""
+"""Critical-incline results as functions of Datasets.
+
+The verdict at a given incline, the expansion onto a grid of inclines (so that
+:func:`tumblemc.analysis.maps.maps` applies) and the comparison with a grid study.
+"""
 
 from __future__ import annotations
 
@@ -12,17 +14,33 @@ import xarray as xr
 
 
 def climbs_at(crit: np.ndarray, inclines: Sequence[float] | np.ndarray) -> np.ndarray:
-    """int8 (samples, inclines): 1 where ``incline <= critical incline`` (the monotonicity
-    assumption); a sample with no critical incline (NaN: fails at the range minimum or
-    invalid) climbs none."""
+    """Verdicts of samples at given inclines from their critical inclines.
+
+    Parameters
+    ----------
+    crit : np.ndarray
+        Critical incline of each sample, degrees (NaN: none).
+    inclines : sequence of float or np.ndarray
+        Inclines, degrees.
+
+    Returns
+    -------
+    np.ndarray
+        int8 (samples, inclines): 1 where ``incline <= critical incline`` (the monotonicity
+        assumption); a sample with no critical incline (NaN: fails at the range minimum or
+        invalid) climbs none.
+    """
     th = np.asarray(inclines, dtype=float)
     return (np.nan_to_num(np.asarray(crit, dtype=float), nan=-np.inf)[:, None] >= th[None, :] - 1e-9).astype(np.int8)
 
 
 def expand_to_grid(runs: xr.Dataset, inclines: Sequence[float] | np.ndarray) -> xr.Dataset:
-    """Virtual grid runs of a critical-incline study: one per sample and incline, with
-    ``climbed = critical_incline_deg >= incline`` (a sample failing at the range minimum
-    climbs none), so that :func:`tumblemc.analysis.maps` gives ``P(climb theta)``."""
+    """Virtual grid runs of a critical-incline study.
+
+    One run per sample and incline, with ``climbed = critical_incline_deg >= incline`` (a
+    sample failing at the range minimum climbs none), so that :func:`tumblemc.analysis.maps`
+    gives ``P(climb theta)``.
+    """
     th = np.asarray(inclines, dtype=float)
     n, m = runs.sizes["run"], len(th)
     climbed = climbs_at(runs["critical_incline_deg"].values, th)

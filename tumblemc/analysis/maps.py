@@ -135,9 +135,19 @@ def _cell_dims(runs: xr.Dataset) -> tuple[list[str], dict[str, np.ndarray]]:
 
 
 def cell_groups(runs: xr.Dataset, dims: Sequence[str]) -> tuple[dict[str, np.ndarray], tuple[int, ...], np.ndarray, list[np.ndarray]]:
-    """Cells of ``runs`` over the coordinates ``dims``: the sorted unique values per dim,
-    the grid shape, the flat (C-order) cell index of every run and the run indices of
-    every cell (in run order)."""
+    """Cells of ``runs`` over the coordinates ``dims``.
+
+    Returns
+    -------
+    values : dict of str to np.ndarray
+        The sorted unique values per dim.
+    shape : tuple of int
+        The grid shape.
+    index : np.ndarray
+        The flat (C-order) cell index of every run.
+    members : list of np.ndarray
+        The run indices of every cell (in run order).
+    """
     values = {d: np.unique(runs[d].values) for d in dims}
     shape = tuple(values[d].size for d in dims)
     idx = np.zeros(runs.sizes["run"], dtype=np.int64)

@@ -1,0 +1,1 @@
+"""One run: parameters, shapes, frames, units, the run itself, batch rows and outcomes."""

@@ -1,5 +1,8 @@
-"""Frames and rotations (MODEL.md, "Frames and state"): the plane's normal, contact
-tangents and uphill direction for an incline, and quaternion/matrix conversions."""
+"""Frames and rotations (MODEL.md, "Frames and state").
+
+The plane's normal, contact tangents and uphill direction for an incline, and
+quaternion/matrix conversions.
+"""
 
 from __future__ import annotations
 

@@ -23,8 +23,10 @@ from tumblemc.model.params import check_number
 
 
 def run_status(kernel_status: int, failed_steps: int, finite: bool = True) -> int:
-    """Outcome status of a run (:data:`tumblemc.schema.STATUS_FLAGS`) from the time
-    loop's status and failed-step count, as the batch kernel computes it.
+    """Outcome status of a run (:data:`tumblemc.schema.STATUS_FLAGS`).
+
+    Computed from the time loop's status and failed-step count, as the batch kernel
+    computes it.
 
     ``ok`` (0): finished, every step converged; ``failed_steps`` (1): some step did not
     converge at the smallest sub-step (or the run stopped after too many); ``nonfinite``

@@ -75,6 +75,7 @@ class PhysicalRange:
     long_name: str
 
     def describe(self) -> str:
+        """Describe the range in words, for error messages (:func:`describe_interval`)."""
         return describe_interval(self.lo, self.hi, self.lo_open, self.hi_open)
 
     def contains(self, x: float) -> bool:
@@ -84,8 +85,18 @@ class PhysicalRange:
         return above and below
 
     def check(self, name: str, value: Any) -> float:
-        """``value`` as a float if it is a finite number in the range; else a ValueError
-        naming ``name``, the value and the range."""
+        """Check ``value`` against the range.
+
+        Returns
+        -------
+        float
+            ``value`` as a float if it is a finite number in the range.
+
+        Raises
+        ------
+        ValueError
+            Otherwise, naming ``name``, the value and the range.
+        """
         if isinstance(value, (bool, np.bool_)):
             raise ValueError(f"{name}={value!r} is not a number (allowed: {self.describe()})")
         try:
@@ -126,6 +137,10 @@ RANGES: dict[str, PhysicalRange] = {
 
 
 def describe_interval(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> str:
+    """Describe the interval from ``lo`` to ``hi`` in words (``"a number in [0, 1)"``).
+
+    Infinite bounds are left out; ``lo_open``/``hi_open`` exclude the bound itself.
+    """
     if math.isinf(lo) and math.isinf(hi):
         return "a finite number"
     if math.isinf(hi):
@@ -136,9 +151,11 @@ def describe_interval(lo: float, hi: float, lo_open: bool = False, hi_open: bool
 
 
 def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> np.ndarray:
-    """Unit body-frame magnetisation: the length axis tilted by ``offset_deg`` about the
-    unit ``offset_axis`` (Rodrigues; MODEL.md: ``(0, cos phi, sin phi)`` for the width
-    axis)."""
+    """Unit body-frame magnetisation.
+
+    The length axis tilted by ``offset_deg`` about the unit ``offset_axis`` (Rodrigues;
+    MODEL.md: ``(0, cos phi, sin phi)`` for the width axis).
+    """
     k = np.asarray(offset_axis, dtype=float).reshape(3)
     y = np.array([0.0, 1.0, 0.0])
     phi = math.radians(offset_deg)
@@ -146,7 +163,20 @@ def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> 
 
 
 #: the numeric fields of :class:`Params`, each checked against :data:`RANGES`
-NUMERIC_FIELDS = ("mass", "F_elect", "mu", "offset_deg", "V_m", "magnetization", "adhesion_C", "line_contact_fraction", "e_t", "e_o", "e_r", "g")
+NUMERIC_FIELDS = (
+    "mass",
+    "F_elect",
+    "mu",
+    "offset_deg",
+    "V_m",
+    "magnetization",
+    "adhesion_C",
+    "line_contact_fraction",
+    "e_t",
+    "e_o",
+    "e_r",
+    "g",
+)
 
 
 @dataclass(frozen=True)
@@ -189,6 +219,7 @@ class Params:
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
+        """Names of all parameters, in field order."""
         return tuple(f.name for f in dataclasses.fields(cls))
 
     def replace(self, **overrides: Any) -> Params:
@@ -220,6 +251,13 @@ PRESETS: dict[str, Params] = {
 
 
 def get_preset(preset: str | Params) -> Params:
+    """Return the :data:`PRESETS` entry named ``preset`` (a :class:`Params` is returned as is).
+
+    Raises
+    ------
+    ValueError
+        If ``preset`` is not a known preset name.
+    """
     if isinstance(preset, Params):
         return preset
     if preset not in PRESETS:
@@ -270,6 +308,7 @@ class SolverOptions:
             raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
     def as_array(self) -> np.ndarray:
+        """Pack the options into the kernels' options array (layout ``O_*`` of :mod:`tumblemc.kernels.layout`)."""
         from tumblemc.kernels import layout as L
 
         a = np.zeros(L.N_OPT)

@@ -29,9 +29,11 @@ from tumblemc.schema import OUTCOMES
 
 
 class RunRow(TypedDict, total=False):
-    """The inputs of one run that vary within a batch (a row of :func:`simulate_rows`):
+    """The inputs of one run that vary within a batch (a row of :func:`simulate_rows`).
+
     :func:`tumblemc.model.run.run_inputs` keywords, checked there. Absent keys take
-    ``run_inputs``' defaults and the preset's values."""
+    ``run_inputs``' defaults and the preset's values.
+    """
 
     preset: str
     incline_deg: float

@@ -28,7 +28,7 @@ from tumblemc.schema import annotate
 DEFAULT_DT = 5e-5
 
 
-TORQUE_OPTIONS = ("start", "end")
+TORQUE_OPTIONS: tuple[str, ...] = ("start", "end")
 
 
 MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
@@ -87,8 +87,10 @@ class RunSpec:
 
     @cached_property
     def geo(self) -> Geometry:
-        """The shape's kernel geometry, built on first use (the batch path builds it once
-        per shape, not per run)."""
+        """The shape's kernel geometry, built on first use.
+
+        The batch path builds it once per shape, not per run.
+        """
         return self.shape.geometry()
 
 
@@ -245,8 +247,11 @@ def prepare(inputs: RunInputs) -> RunSpec:
 
 
 def initial_contact(spec: RunSpec) -> tuple[float, bool]:
-    """Adhering area (scaled) and contact at ``t = 0``: the robot starts lying on a face
-    (MODEL.md), unless lifted, so that face adheres from the first step."""
+    """Adhering area (scaled) and contact at ``t = 0``.
+
+    The robot starts lying on a face (MODEL.md), unless lifted, so that face adheres from
+    the first step.
+    """
     resting = spec.lift_m == 0.0
     return (spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0), resting
 

@@ -34,6 +34,7 @@ class Units:
 
     @property
     def velocity(self) -> float:
+        """Velocity unit, m/s."""
         return self.length / self.time
 
     @property
@@ -43,12 +44,15 @@ class Units:
 
     @property
     def torque(self) -> float:
+        """Torque unit (weight x length), N m."""
         return self.force * self.length
 
     @property
     def inertia(self) -> float:
+        """Moment of inertia unit, kg m^2."""
         return self.mass * self.length**2
 
     @property
     def area(self) -> float:
+        """Area unit, m^2."""
         return self.length**2

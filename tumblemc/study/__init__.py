@@ -1,0 +1,1 @@
+"""Many runs: study configs, distributions, designs, the engine, critical inclines, assembly and Sobol runs."""

@@ -1,5 +1,8 @@
-"""The ``runs`` group of a study file from its design and shards (grid and critical-incline
-modes, with the numerical dt check), and the file's provenance attributes."""
+"""The ``runs`` group of a study file, and the file's provenance attributes.
+
+The group is built from the study's design and shards (grid and critical-incline modes,
+with the numerical dt check).
+"""
 
 from __future__ import annotations
 
@@ -118,8 +121,11 @@ def assemble_runs(
 def assemble_critical(
     cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
 ) -> xr.Dataset:
-    """The ``runs`` group of a critical-incline study: the design, each sample's critical
-    incline, and the monotonicity and numerical checks of the check subset."""
+    """The ``runs`` group of a critical-incline study.
+
+    The design, each sample's critical incline, and the monotonicity and numerical checks
+    of the check subset.
+    """
     n = des.sizes["run"]
     runs = _with_outcomes(des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
     runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"

@@ -1,5 +1,8 @@
-"""Value checkers of study configs: each returns the checked value or raises one
-:class:`ConfigError` naming the key path, the value and what is allowed."""
+"""Value checkers of study configs.
+
+Each returns the checked value or raises one :class:`ConfigError` naming the key path, the
+value and what is allowed.
+"""
 
 from __future__ import annotations
 
@@ -26,14 +29,20 @@ _INF = math.inf
 
 
 def config_error(key: str, value: Any, problem: str, allowed: str) -> ConfigError:
+    """Build the :class:`ConfigError` ``"<key>=<value> <problem> (allowed: <allowed>)"``."""
     return ConfigError(key, f"{key}={value!r} {problem} (allowed: {allowed})")
 
 
 def is_number(value: Any) -> bool:
+    """Whether ``value`` is a Python or NumPy int or float (a bool is not)."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
 def check_num(key: str, value: Any, lo: float = -_INF, hi: float = _INF, lo_open: bool = False, hi_open: bool = False) -> float:
+    """Check that ``value`` is a finite number from ``lo`` to ``hi`` and return it as a float.
+
+    ``lo_open``/``hi_open`` exclude the bound itself; ``-0.0`` becomes ``0.0``.
+    """
     allowed = describe_interval(lo, hi, lo_open, hi_open)
     if not is_number(value):
         raise config_error(key, value, "is not a number", allowed)
@@ -45,6 +54,7 @@ def check_num(key: str, value: Any, lo: float = -_INF, hi: float = _INF, lo_open
 
 
 def check_int(key: str, value: Any, lo: int, hi: int) -> int:
+    """Check that ``value`` is an integer (not a bool) in ``[lo, hi]`` and return it as an int."""
     allowed = f"an integer in [{lo}, {hi}]"
     if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
         raise config_error(key, value, "is not an integer", allowed)
@@ -54,12 +64,14 @@ def check_int(key: str, value: Any, lo: int, hi: int) -> int:
 
 
 def check_str(key: str, value: Any, allowed: str = "a string") -> str:
+    """Check that ``value`` is a string and return it."""
     if not isinstance(value, str):
         raise config_error(key, value, "is not a string", allowed)
     return value
 
 
 def check_choice(key: str, value: Any, choices: Sequence[str]) -> str:
+    """Check that ``value`` is one of ``choices`` and return it (the error suggests the closest choice)."""
     allowed = "one of " + ", ".join(repr(c) for c in choices)
     if not isinstance(value, str):
         raise config_error(key, value, "is not a string", allowed)
@@ -71,6 +83,7 @@ def check_choice(key: str, value: Any, choices: Sequence[str]) -> str:
 
 
 def check_table(key: str, value: Any) -> Mapping[str, Any]:
+    """Check that ``value`` is a TOML table (a mapping with string keys) and return it."""
     if not isinstance(value, Mapping):
         raise config_error(key, value, "is not a table", "a TOML table / mapping")
     for k in value:
@@ -80,10 +93,12 @@ def check_table(key: str, value: Any) -> Mapping[str, Any]:
 
 
 def join_key(prefix: str, key: str) -> str:
+    """Join a dotted key path: ``prefix.key``, or ``key`` if ``prefix`` is empty."""
     return f"{prefix}.{key}" if prefix else key
 
 
 def check_no_unknown(table: Mapping[str, Any], allowed: Sequence[str], prefix: str, what: str = "key") -> None:
+    """Raise a :class:`ConfigError` for the first key of ``table`` not in ``allowed`` (``what`` names the kind of key)."""
     for k in table:
         if k not in allowed:
             close = difflib.get_close_matches(k, allowed, n=1)
@@ -93,6 +108,7 @@ def check_no_unknown(table: Mapping[str, Any], allowed: Sequence[str], prefix: s
 
 
 def check_required(table: Mapping[str, Any], key: str, prefix: str, allowed: str) -> Any:
+    """Return ``table[key]``; a :class:`ConfigError` if it is missing or None."""
     if table.get(key) is None:
         path = join_key(prefix, key)
         raise ConfigError(path, f"{path} is missing (required: {allowed})")
@@ -100,6 +116,7 @@ def check_required(table: Mapping[str, Any], key: str, prefix: str, allowed: str
 
 
 def check_str_list(key: str, value: Any, choices: Sequence[str], what: str) -> tuple[str, ...]:
+    """Check that ``value`` is a non-empty list of distinct names from ``choices`` and return it as a tuple."""
     allowed = f"a non-empty list of distinct {what} names ({', '.join(sorted(choices))})"
     if not isinstance(value, (list, tuple)) or not value:
         raise config_error(key, value, "is not a non-empty list", allowed)
@@ -110,6 +127,10 @@ def check_str_list(key: str, value: Any, choices: Sequence[str], what: str) -> t
 
 
 def check_num_list(key: str, value: Any, lo: float, hi: float, lo_open: bool = False) -> tuple[float, ...]:
+    """Check a number or a non-empty list of distinct numbers in the range, and return them as a tuple.
+
+    At most ``MAX_GRID_VALUES`` values; each is checked by :func:`check_num`.
+    """
     allowed = f"a number or a non-empty list of distinct numbers, each {describe_interval(lo, hi, lo_open)}"
     if is_number(value):
         return (check_num(key, value, lo, hi, lo_open),)
@@ -124,6 +145,10 @@ def check_num_list(key: str, value: Any, lo: float, hi: float, lo_open: bool = F
 
 
 def check_range_table(key: str, value: Mapping[str, Any], lo: float, hi: float) -> tuple[float, ...]:
+    """Expand a ``{start, stop, step}`` table into its values, ``start`` to ``stop`` inclusive.
+
+    At most ``MAX_GRID_VALUES`` values, each rounded to 10 decimals.
+    """
     check_no_unknown(value, ("start", "stop", "step"), key)
     start = check_num(f"{key}.start", check_required(value, "start", key, describe_interval(lo, hi)), lo, hi)
     stop = check_num(f"{key}.stop", check_required(value, "stop", key, describe_interval(lo, hi)), lo, hi)

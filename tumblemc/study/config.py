@@ -186,12 +186,9 @@ TORQUES = TORQUE_OPTIONS  # the simulator's torque options
 MAX_SAMPLES = 1_000_000
 
 
-
-
 @dataclass(frozen=True)
 class CheckConfig:
-    """Numerical-error check: ``max(min_runs, ceil(fraction * runs))`` runs (at most all)
-    are re-simulated at ``dt / dt_factor``."""
+    """Numerical-error check: ``max(min_runs, ceil(fraction * runs))`` runs (at most all) are re-simulated at ``dt / dt_factor``."""
 
     fraction: float = 0.02
     min_runs: int = 20
@@ -200,8 +197,7 @@ class CheckConfig:
 
 @dataclass(frozen=True)
 class ExecutionConfig:
-    """How a study is run (not part of its identity): runs per dask task, tasks in
-    flight and workers (``None``: the engine decides)."""
+    """How a study is run (not part of its identity): runs per dask task, tasks in flight and workers (``None``: the engine decides)."""
 
     batch_size: int = 8
     max_in_flight: int | None = None
@@ -247,10 +243,12 @@ class StudyConfig:
 
     @property
     def uncertain_names(self) -> tuple[str, ...]:
+        """Names of the uncertain parameters, sorted."""
         return tuple(u.param for u in self.uncertain)
 
     @property
     def n_runs(self) -> int:
+        """Number of runs: cells x samples."""
         return len(cells(self)) * self.samples
 
     def duration_s(self, freq_hz: float) -> float:
@@ -375,7 +373,9 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
     presets = check_str_list("presets", req("presets", "a list of preset names"), tuple(PRESETS), "preset")
 
     inc = req("incline_deg", "a list of numbers or a {start, stop, step} table")
-    incline = check_range_table("incline_deg", inc, *_INCLINE) if isinstance(inc, Mapping) else check_num_list("incline_deg", inc, *_INCLINE)
+    incline = (
+        check_range_table("incline_deg", inc, *_INCLINE) if isinstance(inc, Mapping) else check_num_list("incline_deg", inc, *_INCLINE)
+    )
     field_mT = check_num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, RANGES["field_mT"].hi, lo_open=True)
     freq_hz = check_num_list("freq_hz", req("freq_hz", "a number or list, Hz"), 0.0, RANGES["freq_hz"].hi, lo_open=True)
 
@@ -465,15 +465,18 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
 
 
 def cells(config: StudyConfig) -> list[dict[str, Any]]:
-    """Cell coordinates in run-table order (shape outermost, then substrate, incline,
-    field, frequency), one dict per cell keyed by ``config.cell_dims``."""
+    """Cell coordinates in run-table order (shape outermost, then substrate, incline, field, frequency).
+
+    One dict per cell, keyed by ``config.cell_dims``.
+    """
     return _MODES[config.mode].cells(config)
 
 
 def config_to_json(config: StudyConfig) -> str:
-    """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg``
-    expanded, ``[execution]`` left out. ``load_config(json.loads(...))`` gives the config
-    back (with the default execution table)."""
+    """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg`` expanded, ``[execution]`` left out.
+
+    ``load_config(json.loads(...))`` gives the config back (with the default execution table).
+    """
     d = dataclasses.asdict(config)
     del d["execution"]
     for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
@@ -486,6 +489,8 @@ def config_to_json(config: StudyConfig) -> str:
 
 
 def config_hash(config: StudyConfig) -> str:
-    """sha256 (hex) of the sampling scheme and :func:`config_to_json`: the identity of a
-    study's results; insensitive to ``[execution]``."""
+    """sha256 (hex) of the sampling scheme and :func:`config_to_json`.
+
+    The identity of a study's results; insensitive to ``[execution]``.
+    """
     return hashlib.sha256(f"tumblemc-sampling-{SAMPLING_SCHEME}\n{config_to_json(config)}".encode()).hexdigest()

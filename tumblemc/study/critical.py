@@ -17,17 +17,17 @@ least ``theta``: a whole curve, with a binomial CI band, from one set of samples
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
 from tumblemc.model.outcome import is_valid
-from tumblemc.model.rows import TimeGrid, simulate_rows
+from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.schema import CRITICAL_OUTCOMES
 
 
-def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, lo: float, hi: float, tol: float) -> dict[str, np.ndarray]:
+def bisect_rows(shape: str, rows: Sequence[RunRow], grid: TimeGrid, lo: float, hi: float, tol: float) -> dict[str, np.ndarray]:
     """Critical incline of every row (``simulate`` keywords without ``incline_deg``).
 
     Returns the :data:`CRITICAL_OUTCOMES` columns plus ``error`` (messages of rows that
@@ -40,7 +40,7 @@ def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, l
     err = np.full(n, "", dtype=object)
 
     def sim(idx: np.ndarray, inc: np.ndarray) -> np.ndarray:
-        res = simulate_rows(shape, [dict(rows[i], incline_deg=float(t)) for i, t in zip(idx, inc, strict=True)], grid)
+        res = simulate_rows(shape, [cast(RunRow, dict(rows[i], incline_deg=float(t))) for i, t in zip(idx, inc, strict=True)], grid)
         out["n_simulations"][idx] += 1
         out["status"][idx] = np.maximum(out["status"][idx], res["status"])
         nit_sum[idx] += np.nan_to_num(res["newton_iterations"])
@@ -81,13 +81,13 @@ def bisect_rows(shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, l
     return out
 
 
-def monotonicity_rows(
-    shape: str, rows: Sequence[Mapping[str, Any]], grid: TimeGrid, inclines: Sequence[float] | np.ndarray
-) -> dict[str, np.ndarray]:
-    """Verdicts of every row at every incline of ``inclines`` (the check of the
-    monotonicity assumption): ``climbed`` and ``status`` of shape (rows, inclines)."""
+def monotonicity_rows(shape: str, rows: Sequence[RunRow], grid: TimeGrid, inclines: Sequence[float] | np.ndarray) -> dict[str, np.ndarray]:
+    """Verdicts of every row at every incline of ``inclines`` (the check of the monotonicity assumption).
+
+    Returns ``climbed`` and ``status``, each of shape (rows, inclines).
+    """
     n, m = len(rows), len(inclines)
-    flat = [dict(r, incline_deg=float(t)) for r in rows for t in inclines]
+    flat = [cast(RunRow, dict(r, incline_deg=float(t))) for r in rows for t in inclines]
     res = simulate_rows(shape, flat, grid)
     return {
         "climbed": res["climbed"].reshape(n, m),

@@ -1,7 +1,10 @@
-"""A study's design: run keys, seeded uniforms per run (``mc``, ``sobol``, ``lhs``), the
-run table (:func:`design`), the keyword rows handed to the batch path, the time grid and
-the numerical-check subset. Randomness is data: a run's draw depends only on the root
-seed and the run's identity."""
+"""A study's design.
+
+Run keys, seeded uniforms per run (``mc``, ``sobol``, ``lhs``), the run table
+(:func:`design`), the keyword rows handed to the batch path, the time grid and the
+numerical-check subset. Randomness is data: a run's draw depends only on the root seed
+and the run's identity.
+"""
 
 from __future__ import annotations
 
@@ -63,8 +66,10 @@ def _mc_uniforms(seed: int, words: list[int], n: int, slots: list[int]) -> np.nd
 
 
 def _cell_uniforms(config: StudyConfig, cell: Mapping[str, Any]) -> np.ndarray:
-    """Uniforms in (0, 1) for one cell: shape (samples, n_uncertain), columns in
-    ``config.uncertain`` order."""
+    """Uniforms in (0, 1) for one cell.
+
+    Shape (samples, n_uncertain), columns in ``config.uncertain`` order.
+    """
     n, d = config.samples, len(config.uncertain)
     if d == 0:
         return np.empty((n, 0))
@@ -90,8 +95,10 @@ def _check_mask(config: StudyConfig, keys: np.ndarray) -> np.ndarray:
 
 
 def sampled_name(param: str) -> str:
-    """Run-table variable of a sampled parameter (``field_mT`` is a cell coordinate, so
-    its sampled value is ``field_mT_sampled``)."""
+    """Run-table variable of a sampled parameter.
+
+    ``field_mT`` is a cell coordinate, so its sampled value is ``field_mT_sampled``.
+    """
     return "field_mT_sampled" if param == "field_mT" else param
 
 
@@ -198,9 +205,11 @@ def params_for_run(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> 
 
 
 def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRow:
-    """The keywords of one run that differ from run to run (a row of
-    :func:`tumblemc.batch.simulate_rows`): preset, incline, field (the sampled one if
-    ``field_mT`` is uncertain), frequency and :func:`params_for_run`."""
+    """The keywords of one run that differ from run to run (a row of :func:`tumblemc.model.rows.simulate_rows`).
+
+    Preset, incline, field (the sampled one if ``field_mT`` is uncertain), frequency and
+    :func:`params_for_run`.
+    """
     field_name = sampled_name("field_mT") if "field_mT" in config.uncertain_names else "field_mT"
     out: dict[str, Any] = {"preset": str(_scalar(row, "substrate"))}
     if "incline_deg" in row:  # a critical-incline run has none: the engine sets it
@@ -211,8 +220,10 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRo
 
 
 def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
-    """Every keyword of ``tumblemc.simulate`` for one run: :func:`batch_row` plus the
-    shape and the time grid (duration, dt, torque)."""
+    """Every keyword of ``tumblemc.simulate`` for one run.
+
+    :func:`batch_row` plus the shape and the time grid (duration, dt, torque).
+    """
     b = batch_row(config, row)
     return {
         "shape": str(_scalar(row, "shape")),
@@ -223,18 +234,16 @@ def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict
     }
 
 
-
-
-
-
-
-
 def study_dt(cfg: StudyConfig) -> float:
     """The study's time step, s (the simulator default when the config leaves it out)."""
     return float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
 
 
 def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
+    """The study's time grid of every run (``fine``: at ``dt / [check].dt_factor``, for the numerical check).
+
+    A run stops at its first failed step (``max_failed_steps=1``).
+    """
     dt = study_dt(cfg)
     if fine:
         dt = dt / cfg.check.dt_factor
@@ -251,13 +260,18 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
 
 
 def check_inclines(cfg: StudyConfig) -> tuple[float, ...]:
-    """Grid inclines of a critical-incline study's monotonicity check, sorted: those of
-    ``incline_deg`` inside ``incline_range``."""
+    """Grid inclines of a critical-incline study's monotonicity check, sorted.
+
+    Those of ``incline_deg`` inside ``incline_range``.
+    """
     lo, hi = cfg.incline_range
     return tuple(sorted(t for t in cfg.incline_deg if lo <= t <= hi))
 
 
 def check_subset(des: xr.Dataset) -> np.ndarray:
-    """Run indices re-simulated at the finer dt (the design's ``check`` flag: a fraction of
-    the runs, at least ``[check].min_runs``, chosen by a seeded hash of each run's key)."""
+    """Run indices re-simulated at the finer dt.
+
+    The design's ``check`` flag: a fraction of the runs, at least ``[check].min_runs``,
+    chosen by a seeded hash of each run's key.
+    """
     return np.flatnonzero(des["check_flag"].values).astype(np.int64)

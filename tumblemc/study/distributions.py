@@ -1,8 +1,10 @@
-"""Uncertain parameters of a study: the ``[uncertain.<param>]`` tables parsed into
-:class:`Uncertain`, resolved around a preset's nominal value into a
-:class:`ParamDistribution` restricted to the parameter's physical range
-(:data:`tumblemc.model.params.RANGES`). The TOML forms are documented in
-:mod:`tumblemc.study.config`."""
+"""Uncertain parameters of a study.
+
+The ``[uncertain.<param>]`` tables parsed into :class:`Uncertain`, resolved around a
+preset's nominal value into a :class:`ParamDistribution` restricted to the parameter's
+physical range (:data:`tumblemc.model.params.RANGES`). The TOML forms are documented in
+:mod:`tumblemc.study.config`.
+"""
 
 from __future__ import annotations
 
@@ -34,7 +36,21 @@ U_EPS = 2.0**-53  # uniforms are kept in [eps, 1 - eps] so every ppf is finite
 
 #: the parameters that may be uncertain (each has a row in RANGES), in the order of the
 #: ``mc`` sampler's slots: part of the sampling scheme, append only
-UNCERTAIN_PARAMS: tuple[str, ...] = ("mass", "F_elect", "mu", "offset_deg", "V_m", "magnetization", "adhesion_C", "line_contact_fraction", "e_t", "e_o", "e_r", "g", "field_mT")
+UNCERTAIN_PARAMS: tuple[str, ...] = (
+    "mass",
+    "F_elect",
+    "mu",
+    "offset_deg",
+    "V_m",
+    "magnetization",
+    "adhesion_C",
+    "line_contact_fraction",
+    "e_t",
+    "e_o",
+    "e_r",
+    "g",
+    "field_mT",
+)
 
 
 #: the uncertainty assumed when a config has no ``[uncertain]`` table
@@ -69,6 +85,7 @@ class Uncertain:
     args: tuple[tuple[str, float], ...]
 
     def to_dict(self) -> dict[str, Any]:
+        """The TOML table of this parameter: ``{"dist": ..., <args>}``."""
         return {"dist": self.dist, **dict(self.args)}
 
     def resolve(self, nominal: float, where: str = "") -> ParamDistribution:
@@ -120,6 +137,14 @@ class ParamDistribution:
 
 
 def parse_uncertain(value: Any) -> tuple[Uncertain, ...]:
+    """Parse the ``[uncertain]`` table into :class:`Uncertain` entries, sorted by parameter name.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown parameter or distribution, or a parameter set that matches none of
+        the distribution's forms.
+    """
     table = check_table("uncertain", value)
     check_no_unknown(table, UNCERTAIN_PARAMS, "uncertain", "uncertain parameter")
     out = []
@@ -134,7 +159,8 @@ def parse_uncertain(value: Any) -> tuple[Uncertain, ...]:
             if k != "dist" and k not in all_keys and owners:
                 raise ConfigError(
                     f"{key}.{k}",
-                    f"{key}.{k} is a parameter of dist={' or '.join(map(repr, owners))}, not of dist={dist!r} (allowed: {', '.join(all_keys)})",
+                    f"{key}.{k} is a parameter of dist={' or '.join(map(repr, owners))}, not of dist={dist!r} "
+                    f"(allowed: {', '.join(all_keys)})",
                 )
         check_no_unknown(spec, ("dist", *all_keys), key, f"parameter of dist={dist!r}")
         args = {k: check_num(f"{key}.{k}", v) for k, v in spec.items() if k != "dist"}
@@ -182,7 +208,9 @@ def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:
         mean = a.get("mean", nominal)
         sd = a["sd"] if "sd" in a else a["rel_sd"] * abs(nominal)
         if not sd > 0:
-            raise config_error(f"{key}.rel_sd", a["rel_sd"], f"gives sd = 0 around the nominal {nominal:g}{at}", "an absolute 'sd' > 0 instead")
+            raise config_error(
+                f"{key}.rel_sd", a["rel_sd"], f"gives sd = 0 around the nominal {nominal:g}{at}", "an absolute 'sd' > 0 instead"
+            )
         lo, hi = a.get("lower", r.lo), a.get("upper", r.hi)
         za, zb = (lo - mean) / sd, (hi - mean) / sd
         if u.dist == "normal":

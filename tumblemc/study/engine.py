@@ -1,6 +1,6 @@
 """Many runs: a study's design executed in batches, in-process or on a dask cluster.
 
-:func:`run_study` turns a study config (:mod:`tumblemc.sampling`) into runs, groups them
+:func:`run_study` turns a study config (:mod:`tumblemc.study.config`) into runs, groups them
 into batches (one dask task each, a second or so of work), streams every finished batch
 to a crash-safe shard (:mod:`tumblemc.io`), and assembles the ``runs`` and ``maps`` groups
 of one netCDF file. ``client=None`` runs the batches in this process; a
@@ -33,7 +33,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 import xarray as xr
@@ -41,7 +41,7 @@ import xarray as xr
 from tumblemc.analysis.critical import expand_to_grid
 from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
-from tumblemc.model.rows import TimeGrid, simulate_rows
+from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
@@ -65,7 +65,7 @@ class Task:
     key: str
     shape: str
     run: tuple[int, ...]
-    rows: tuple[dict[str, Any], ...]
+    rows: tuple[RunRow, ...]
     grid: TimeGrid
     mode: str = "grid"
     # critical_incline mode: incline range and tolerance, check grid, fine time grid
@@ -77,9 +77,11 @@ class Task:
 
 
 def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
-    """Run one batch (the function every dask task calls). A batch that raises is rerun
-    row by row; a row that still raises is recorded with status ``error`` and the
-    message, so one bad run never stops a study."""
+    """Run one batch (the function every dask task calls).
+
+    A batch that raises is rerun row by row; a row that still raises is recorded with status
+    ``error`` and the message, so one bad run never stops a study.
+    """
     try:
         return _execute_task(task)
     except Exception:  # noqa: BLE001 - any failure of a run is data, not a crash
@@ -116,9 +118,11 @@ def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
 
 
 def _critical_check(task: Task) -> dict[str, np.ndarray]:
-    """Check runs of a critical-incline study: verdicts at every grid incline (the
-    monotonicity check) and, at the two grid inclines around the first failure, the
-    verdicts at the finer dt (the numerical check)."""
+    """Check runs of a critical-incline study.
+
+    Verdicts at every grid incline (the monotonicity check) and, at the two grid inclines
+    around the first failure, the verdicts at the finer dt (the numerical check).
+    """
     th = np.asarray(task.inclines, dtype=float)
     mono = monotonicity_rows(task.shape, task.rows, task.grid, th)
     n = len(task.rows)
@@ -130,7 +134,9 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
         ij[i] = (max(k - 1, 0), k)
     pair = th[ij]
     assert task.fine is not None
-    fine = simulate_rows(task.shape, [dict(r, incline_deg=float(t)) for r, p in zip(task.rows, pair, strict=True) for t in p], task.fine)
+    fine = simulate_rows(
+        task.shape, [cast(RunRow, dict(r, incline_deg=float(t))) for r, p in zip(task.rows, pair, strict=True) for t in p], task.fine
+    )
     rows_i = np.arange(n)[:, None]
     return {
         "grid_climbed": mono["climbed"],
@@ -143,8 +149,8 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
     }
 
 
-def design_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[dict[str, Any]]:
-    """:func:`tumblemc.sampling.batch_row` of runs ``idx`` (columns read once, not per run)."""
+def design_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[RunRow]:
+    """:func:`tumblemc.study.design.batch_row` of runs ``idx`` (columns read once, not per run)."""
     names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
     cols = {k: des[k].values for k in names if k in des.variables}
     return [batch_row(cfg, {k: v[i] for k, v in cols.items()}) for i in idx]
@@ -204,6 +210,7 @@ class Progress:
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
 
     def update(self, n: int) -> None:
+        """Count ``n`` more runs done and redraw (at most every 0.2 s on a terminal, 10 s otherwise)."""
         self.done += n
         now = time.perf_counter()
         if self.enabled and (now - self.last > (0.2 if self.tty else 10.0) or self.done >= self.total):
@@ -217,6 +224,7 @@ class Progress:
             print(("\r" if self.tty else "") + line, end="" if self.tty else "\n", file=self.stream, flush=True)
 
     def close(self) -> None:
+        """End the bar's line on a terminal."""
         if self.enabled and self.tty:
             print(file=self.stream, flush=True)
 
@@ -254,6 +262,7 @@ def _execute(
 
 
 def default_output(cfg: StudyConfig) -> Path:
+    """Default result path of a study: ``results/<name>.nc``."""
     return Path("results") / f"{cfg.name}.nc"
 
 
@@ -272,7 +281,7 @@ def run_study(
     Parameters
     ----------
     config : path, dict or StudyConfig
-        The study (:func:`tumblemc.sampling.load_config`).
+        The study (:func:`tumblemc.study.config.load_config`).
     client : dask.distributed.Client, optional
         Where to run the batches; ``None`` runs them in this process.
     out : path, optional
@@ -302,7 +311,8 @@ def run_study(
             return StudyResult(runs, maps, path)
         if _parts_hash(path) != chash:  # an interrupted run of this config may replace it
             raise StudyStateError(
-                f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); use --fresh (fresh=True) to replace it, or another --out"
+                f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); "
+                "use --fresh (fresh=True) to replace it, or another --out"
             )
     path.parent.mkdir(parents=True, exist_ok=True)
     store = ShardStore(path, cjson, chash)
@@ -365,9 +375,11 @@ def _n_workers(client: Any) -> int:
 
 
 def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> dict[str, Any]:
-    """How far a study got: from its config (and the default or given result path) or from
-    a result file. Keys: ``state`` ("not started", "partial", "complete"), ``done``,
-    ``total``, ``failed`` and, when complete, the check summary."""
+    """How far a study got, from its config (and the default or given result path) or from a result file.
+
+    Keys: ``state`` ("not started", "partial", "complete"), ``done``, ``total``, ``failed``
+    and, when complete, the check summary.
+    """
     p = Path(config_or_result)
     if p.suffix == ".nc":
         runs, _ = open_result(p)
@@ -413,17 +425,22 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
 
 
 def warm_kernels() -> float:
-    """Compile (or load from the Numba cache) every kernel a study uses, in this process;
-    workers started afterwards load them from the cache instead of compiling each."""
+    """Compile (or load from the Numba cache) every kernel a study uses, in this process.
+
+    Workers started afterwards load them from the cache instead of compiling each.
+    """
     t0 = time.perf_counter()
     simulate_rows("cuboid", [{"preset": "paper", "freq_hz": 1000.0}], TimeGrid(periods=2.0))
     return time.perf_counter() - t0
 
 
 def local_client(workers: int | None = None) -> Any:
-    """A ``dask.distributed`` client on an embedded LocalCluster: one process per worker,
-    one thread each (the kernels are single-threaded; processes avoid any GIL contention
-    in the Python layer), Numba's cache warmed in this process first."""
+    """A ``dask.distributed`` client on an embedded LocalCluster.
+
+    One process per worker, one thread each (the kernels are single-threaded; processes
+    avoid any GIL contention in the Python layer), Numba's cache warmed in this process
+    first.
+    """
     from distributed import Client, LocalCluster
 
     for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):

@@ -1,6 +1,8 @@
-"""End-to-end Sobol sensitivity of the robot: Saltelli rows through the simulator
-(:func:`sobol_rows`, :func:`robot_sobol`). The estimators themselves, which never
-simulate, are in :mod:`tumblemc.analysis.sobol`."""
+"""End-to-end Sobol sensitivity of the robot.
+
+Saltelli rows through the simulator (:func:`sobol_rows`, :func:`robot_sobol`). The
+estimators themselves, which never simulate, are in :mod:`tumblemc.analysis.sobol`.
+"""
 
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ def map_unit_samples(config: StudyConfig, U: ArrayLike, substrate: str, field_mT
     -------
     dict
         ``{sampled_name(param): (m,) values}`` in the units of each parameter, the names
-        of the run table (:func:`tumblemc.sampling.sampled_name`).
+        of the run table (:func:`tumblemc.study.design.sampled_name`).
     """
     u = np.asarray(U, dtype=np.float64)
     d = len(config.uncertain)
@@ -90,7 +92,7 @@ def sobol_rows(
         :meth:`SaltelliDesign.stack` of :func:`saltelli_design` ``(n, d, seed)``.
     rows : list of dict
         One ``tumblemc.simulate`` keyword dict per row of ``unit_matrix``
-        (:func:`tumblemc.sampling.run_kwargs`), the parameters mapped through the
+        (:func:`tumblemc.study.design.run_kwargs`), the parameters mapped through the
         config's distributions. Run them, then ``split_saltelli(y, d)`` and
         :func:`sobol_indices` with ``names=config.uncertain_names``.
     """
@@ -101,8 +103,10 @@ def sobol_rows(
 def _design_cells(
     config: StudyConfig, n: int, seed: int, shape: str, substrate: str, incline_deg: float, field_mT: float | None, freq_hz: float | None
 ) -> tuple[np.ndarray, list[dict[str, Any]]]:
-    """The stacked Saltelli design and one run-table row (cell coordinates and sampled
-    parameters) per design row."""
+    """The stacked Saltelli design and one run-table row per design row.
+
+    A row holds the cell coordinates and the sampled parameters.
+    """
     d = len(config.uncertain)
     if d == 0:
         raise ValueError("the config has no uncertain parameter: nothing to analyse")

@@ -1,5 +1,8 @@
-"""Robot shapes: types (:mod:`.types`), profile geometry (:mod:`.profile`) and the library
-of the paper's four shapes (:mod:`.library`), in the body frame of MODEL.md ("Shapes")."""
+"""Robot shapes in the body frame of MODEL.md ("Shapes").
+
+Types (:mod:`.types`), profile geometry (:mod:`.profile`) and the library of the paper's
+four shapes (:mod:`.library`).
+"""
 
 from tumblemc.model.shapes.library import SHAPES, cuboid, curved, get_shape, spiked, spiked_ends
 from tumblemc.model.shapes.profile import extruded

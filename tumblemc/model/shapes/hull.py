@@ -1,6 +1,9 @@
-"""Profile geometry in the body y-z plane: circular arcs, sampled outlines, exact area
-moments (rational arithmetic), the convex hull and its faces (which real material each
-hull face touches: face or line contact). Used by :func:`tumblemc.model.shapes.profile.extruded`."""
+"""Profile geometry in the body y-z plane.
+
+Circular arcs, sampled outlines, exact area moments (rational arithmetic), the convex hull
+and its faces (which real material each hull face touches: face or line contact). Used by
+:func:`tumblemc.model.shapes.profile.extruded`.
+"""
 
 from __future__ import annotations
 
@@ -36,9 +39,11 @@ class Arc:
     mid: np.ndarray
 
     def angles(self, n: int) -> np.ndarray:
+        """Polar angles of ``n + 1`` equally spaced points from th0 to th1."""
         return self.th0 + (self.th1 - self.th0) * np.arange(n + 1) / n
 
     def points(self, n: int) -> np.ndarray:
+        """The arc sampled at ``n + 1`` equally spaced points (:meth:`angles`), shape (n + 1, 2)."""
         th = self.angles(n)
         return self.centre + self.radius * np.column_stack([np.cos(th), np.sin(th)])
 
@@ -73,8 +78,11 @@ def sample_outline(v: np.ndarray, arcs: dict[int, Arc], step: float) -> np.ndarr
 
 
 def polygon_moments(v: np.ndarray) -> list[Fraction]:
-    """[A, Sy, Sz, Syy, Szz, Syz] of a CCW polygon about the origin, in exact rational
-    arithmetic on the given floats (Green's theorem; ``S_ab`` = integral of a b dA)."""
+    """[A, Sy, Sz, Syy, Szz, Syz] of a CCW polygon about the origin.
+
+    Exact rational arithmetic on the given floats (Green's theorem; ``S_ab`` = integral of
+    a b dA).
+    """
     acc = [Fraction(0)] * 6
     q = [(Fraction(float(y)), Fraction(float(z))) for y, z in v]
     for (y0, z0), (y1, z1) in zip(q, q[1:] + q[:1], strict=True):
@@ -86,8 +94,10 @@ def polygon_moments(v: np.ndarray) -> list[Fraction]:
 
 
 def segment_moments(arc: Arc) -> np.ndarray:
-    """[A, Sy, Sz, Syy, Szz, Syz] about the origin of the circular segment between the arc
-    and its chord (positive; the caller adds or removes it)."""
+    """[A, Sy, Sz, Syy, Szz, Syz] about the origin of the circular segment between the arc and its chord.
+
+    Positive; the caller adds or removes it.
+    """
     r, b = arc.radius, arc.beta
     sb, cb = math.sin(b), math.cos(b)
     area = r * r * (b - sb * cb)
@@ -103,8 +113,11 @@ def segment_moments(arc: Arc) -> np.ndarray:
 
 
 def area_moments(v: np.ndarray, arcs: dict[int, Arc]) -> list[Fraction]:
-    """[A, Sy, Sz, Syy, Szz, Syz] of the profile about the origin: the polygon exactly,
-    plus or minus the circular segments of its arcs (closed forms in floating point)."""
+    """[A, Sy, Sz, Syy, Szz, Syz] of the profile about the origin.
+
+    The polygon exactly, plus or minus the circular segments of its arcs (closed forms in
+    floating point).
+    """
     m = polygon_moments(v)
     for arc in arcs.values():
         m = [a + arc.sign * Fraction(float(t)) for a, t in zip(m, segment_moments(arc), strict=True)]
@@ -112,8 +125,10 @@ def area_moments(v: np.ndarray, arcs: dict[int, Arc]) -> list[Fraction]:
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Indices of the strict convex hull of ``points`` (M, 2), CCW, nearly collinear
-    points dropped (relative tolerance ``REL_TOL`` on the turn's sine)."""
+    """Indices of the strict convex hull of ``points`` (M, 2), CCW.
+
+    Nearly collinear points are dropped (relative tolerance ``REL_TOL`` on the turn's sine).
+    """
     order = np.lexsort((points[:, 1], points[:, 0]))
 
     def turn_ok(o: int, a: int, b: int) -> bool:
@@ -134,8 +149,11 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
 
 @dataclass
 class HullFace:
-    """A face of the profile's hull: straight from ``p0`` to ``p1``, or the whole outward
-    arc ``arc`` (from ``p0`` to ``p1``, CCW about its centre)."""
+    """A face of the profile's hull.
+
+    Straight from ``p0`` to ``p1``, or the whole outward arc ``arc`` (from ``p0`` to ``p1``,
+    CCW about its centre).
+    """
 
     p0: np.ndarray
     p1: np.ndarray
@@ -143,6 +161,7 @@ class HullFace:
 
     @property
     def length(self) -> float:
+        """Length of the face (chord of a straight face, arc length of an arc), m."""
         if self.arc is None:
             return float(math.hypot(*(self.p1 - self.p0)))
         return self.arc.radius * (self.arc.th1 - self.arc.th0)
@@ -216,8 +235,10 @@ def hull_faces(v: np.ndarray, arcs: dict[int, Arc], step: float, user_edge: dict
 
 
 def face_order(faces: list[HullFace]) -> list[tuple[str, HullFace]]:
-    """Hull faces grouped by the body direction nearest their outward normal, in the order
-    +y, -y, +z, -z (the cuboid's), and by polar angle within a group."""
+    """Hull faces grouped by the body direction nearest their outward normal.
+
+    Groups in the order +y, -y, +z, -z (the cuboid's), and by polar angle within a group.
+    """
     keyed = []
     for f in faces:
         n = f.normal

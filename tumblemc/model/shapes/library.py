@@ -1,5 +1,8 @@
-"""The paper's four robot shapes (MODEL.md, "Shapes"): :func:`cuboid`, :func:`spiked`,
-:func:`spiked_ends` and :func:`curved`, the :data:`SHAPES` registry and :func:`get_shape`."""
+"""The paper's four robot shapes (MODEL.md, "Shapes").
+
+:func:`cuboid`, :func:`spiked`, :func:`spiked_ends` and :func:`curved`, the :data:`SHAPES`
+registry and :func:`get_shape`.
+"""
 
 from __future__ import annotations
 
@@ -55,10 +58,11 @@ def spiked(
     *,
     mass_from: str = "aluminum_robot",
 ) -> Shape:
-    """Spiked robot (MODEL.md "Shapes"): a bar ``length x bar_height`` with one triangular
-    spike on each long side at mid-length (base ``spike_base``, apex at ``z = +-apex_z``),
-    extruded by ``thickness`` (m). Inertia: see ``mass_from`` in :func:`extruded` (default:
-    the aluminum robot's, as in the paper).
+    """Spiked robot (MODEL.md "Shapes").
+
+    A bar ``length x bar_height`` with one triangular spike on each long side at mid-length
+    (base ``spike_base``, apex at ``z = +-apex_z``), extruded by ``thickness`` (m). Inertia:
+    see ``mass_from`` in :func:`extruded` (default: the aluminum robot's, as in the paper).
 
     Hull faces (defaults; normals in body (y, z); areas in um^2):
 
@@ -96,10 +100,12 @@ def spiked_ends(
     *,
     mass_from: str = "aluminum_robot",
 ) -> Shape:
-    """Spiked-ends robot (MODEL.md "Shapes"): a bar ``length x bar_height`` with four
-    triangular corner spikes (base ``spike_base`` flush with each end, height
-    ``spike_height``, apex above the middle of the base), extruded by ``thickness`` (m).
-    Inertia: see ``mass_from`` in :func:`extruded` (default: the aluminum robot's).
+    """Spiked-ends robot (MODEL.md "Shapes").
+
+    A bar ``length x bar_height`` with four triangular corner spikes (base ``spike_base``
+    flush with each end, height ``spike_height``, apex above the middle of the base),
+    extruded by ``thickness`` (m). Inertia: see ``mass_from`` in :func:`extruded` (default:
+    the aluminum robot's).
 
     Hull faces (defaults; normals in body (y, z); areas in um^2):
 
@@ -148,11 +154,12 @@ def curved(
     *,
     mass_from: str = "aluminum_robot",
 ) -> Shape:
-    """Curved robot (MODEL.md "Shapes"): an annular sector of radii ``r_outer`` and
-    ``r_inner`` (m) and half-angle ``half_angle_deg``, extruded by ``thickness``, its
-    centre of curvature on the body z axis below the CM, so that the outer arc bulges
-    toward +z and the robot starts lying on it. Inertia: see ``mass_from`` in
-    :func:`extruded` (default: the aluminum robot's).
+    """Curved robot (MODEL.md "Shapes").
+
+    An annular sector of radii ``r_outer`` and ``r_inner`` (m) and half-angle
+    ``half_angle_deg``, extruded by ``thickness``, its centre of curvature on the body z
+    axis below the CM, so that the outer arc bulges toward +z and the robot starts lying on
+    it. Inertia: see ``mass_from`` in :func:`extruded` (default: the aluminum robot's).
 
     Hull faces (defaults; normals in body (y, z); areas in um^2):
 

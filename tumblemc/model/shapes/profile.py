@@ -1,6 +1,9 @@
-"""User-defined robot profiles: validation of a polygon (with optional circular arcs) and
-:func:`extruded`, which turns it into a :class:`~tumblemc.model.shapes.types.Shape`
-(hull, contact constraints, adhering areas, mass properties)."""
+"""User-defined robot profiles.
+
+Validation of a polygon (with optional circular arcs) and :func:`extruded`, which turns it
+into a :class:`~tumblemc.model.shapes.types.Shape` (hull, contact constraints, adhering
+areas, mass properties).
+"""
 
 from __future__ import annotations
 
@@ -35,6 +38,18 @@ def _dim_error(arg: str, what: str | None, value: float) -> ValueError:
 
 
 def check_dim(arg: str, value: Any) -> float:
+    """Check a length argument ``arg`` of a shape.
+
+    Returns
+    -------
+    float
+        ``value`` as a float, m.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not a finite number from ``MIN_DIM_M`` to ``MAX_DIM_M``.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(float(value)):
         raise ValueError(f"{arg}={value!r} is not allowed (allowed: a finite length in metres, {MIN_DIM_M:g}..{MAX_DIM_M:g})")
     x = float(value)
@@ -87,8 +102,10 @@ def _check_profile(profile: Any) -> np.ndarray:
 
 
 def _self_intersection(p: np.ndarray) -> tuple[int, int] | None:
-    """First pair of edges of the closed polygon ``p`` (N, 2) that touch or cross, other
-    than neighbours sharing their common vertex (a neighbour folding back counts)."""
+    """First pair of edges of the closed polygon ``p`` (N, 2) that touch or cross.
+
+    Neighbours sharing their common vertex do not count (a neighbour folding back does).
+    """
     n = len(p)
     a, b = p, np.roll(p, -1, axis=0)
     size = float(np.ptp(p, axis=0).max())
@@ -140,17 +157,20 @@ def _check_arcs(arcs: Any, v: np.ndarray) -> dict[int, float]:
         chord = float(np.hypot(*(v[(ki + 1) % n] - v[ki])))
         if r < 0.5 * chord * (1.0 - 1e-12):
             raise ValueError(
-                f"arcs[{k!r}]={rad!r} is too small for edge {ki} of length {chord!r} m (allowed: |radius| >= half the edge, {0.5 * chord!r} m)"
+                f"arcs[{k!r}]={rad!r} is too small for edge {ki} of length {chord!r} m "
+                f"(allowed: |radius| >= half the edge, {0.5 * chord!r} m)"
             )
         out[ki] = float(rad)
     return out
 
 
 def _arc_crosses_neighbour(v: np.ndarray, arcs: dict[int, Arc]) -> np.ndarray | None:
-    """A point where an arc meets a straight neighbouring edge other than at their shared
-    vertex, or None. The edge's line through the shared vertex ``p`` meets the arc's
-    circle once more, at ``p + t d`` with ``t = -2 d.(p - centre)`` (``d`` unit, pointing
-    along the edge away from ``p``); it counts if it lies on the edge and on the arc."""
+    """A point where an arc meets a straight neighbouring edge other than at their shared vertex, or None.
+
+    The edge's line through the shared vertex ``p`` meets the arc's circle once more, at
+    ``p + t d`` with ``t = -2 d.(p - centre)`` (``d`` unit, pointing along the edge away
+    from ``p``); it counts if it lies on the edge and on the arc.
+    """
     n = len(v)
     size = float(np.ptp(v, axis=0).max())
     for k, arc in arcs.items():

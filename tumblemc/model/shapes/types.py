@@ -1,5 +1,7 @@
-"""Robot shapes as data: unions of convex pieces, each an intersection of smooth convex
-constraints in body coordinates, with the adhering area of each face.
+"""Robot shapes as data.
+
+A shape is a union of convex pieces, each an intersection of smooth convex constraints in
+body coordinates, with the adhering area of each face.
 
 Body frame: x = width or thickness (the rotation axis of tumbling), y = length,
 z = height, origin at the centre of mass. The robot starts lying with body +z along -n,
@@ -73,6 +75,7 @@ _GROUPS = (("+y", (1.0, 0.0)), ("-y", (-1.0, 0.0)), ("+z", (0.0, 1.0)), ("-z", (
 
 
 def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """2-D cross product ``a_y b_z - a_z b_y`` of (..., 2) arrays (positive: ``b`` turns CCW from ``a``)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
@@ -150,9 +153,11 @@ class Shape:
         return mass * self.inertia_per_mass
 
     def mass(self, density: float) -> float:
-        """Mass (kg) of the extruded profile at uniform ``density`` (kg/m^3):
+        """Mass (kg) of the extruded profile at uniform ``density`` (kg/m^3).
+
         ``density x profile_area x thickness``. The simulated mass comes from the Params
-        preset; this helps choose it for a new shape."""
+        preset; this helps choose it for a new shape.
+        """
         if (
             isinstance(density, bool)
             or not isinstance(density, (int, float, np.integer, np.floating))
@@ -164,17 +169,21 @@ class Shape:
         return float(density) * self.profile_area * self.thickness
 
     def rest_height(self) -> float:
-        """CM height above the plane when lying with body +z along -n (MODEL.md): the
-        exact largest body z of the pieces (support points, and the top of any
-        ``cylinder_x`` face whose top lies on the piece)."""
+        """CM height above the plane when lying with body +z along -n (MODEL.md).
+
+        The exact largest body z of the pieces (support points, and the top of any
+        ``cylinder_x`` face whose top lies on the piece).
+        """
         return max(_piece_top(p) for p in self.pieces)
 
     def rest_face_area(self, line_contact_fraction: float) -> float:
-        """Adhering area (m^2) in the initial pose, lying with body +z along -n, with the
-        time-stepper's rule: the faces of the lowest piece(s) whose outward normal is body
-        +z at the rest height (one flat face: its area; one line face or several:
+        """Adhering area (m^2) in the initial pose, lying with body +z along -n.
+
+        With the time-stepper's rule: the faces of the lowest piece(s) whose outward normal
+        is body +z at the rest height (one flat face: its area; one line face or several:
         ``line_contact_fraction`` x the smallest); if none (the piece stands on an edge
-        along x), the constraints active on that edge, as line contact."""
+        along x), the constraints active on that edge, as line contact.
+        """
         h = self.rest_height()
         total = 0.0
         for p in self.pieces:
@@ -195,9 +204,11 @@ class Shape:
         return total
 
     def hull_faces(self) -> list[tuple[Constraint, np.ndarray]]:
-        """Each hull face of the y-z profile (constraints not normal to x) with its (K, 2)
-        polyline in the body y-z plane, m: the two end points of a flat face, the sampled
-        points of a curved one (for plots)."""
+        """Each hull face of the y-z profile (constraints not normal to x) with its polyline.
+
+        The (K, 2) polyline is in the body y-z plane, m: the two end points of a flat face,
+        the sampled points of a curved one (for plots).
+        """
         out = []
         for p in self.pieces:
             pts = p.support_points
