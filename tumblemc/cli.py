@@ -193,7 +193,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser(
         "bench",
         help="run the benchmarks (arguments are passed on, e.g. --quick --repeats 3)",
-        description="Run the benchmarks; all further arguments go to tumblemc.bench.",
+        description="Run the benchmarks; all further arguments go to tumblemc.stepcost.",
         add_help=False,
         prefix_chars="\0",  # parse nothing: every argument is passed through
     )
