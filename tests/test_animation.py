@@ -1,4 +1,4 @@
-"""Animations of one run (``tumblemc.animation``)."""
+"""Animations of one run (``tumblemc.viz.animation`` and ``tumblemc.viz.scene``)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ import tumblemc
 from tumblemc.cli import main
 from tumblemc.model.frames import plane_frame
 from tumblemc.model.shapes.library import SHAPES, get_shape
-from tumblemc.viz import animation
+from tumblemc.viz import animation, scene
 from tumblemc.viz.animation import animate_result, animate_run, render_frame
 
 
@@ -157,7 +157,7 @@ def test_window_keeps_the_body_in_view(flat_run: xr.Dataset, distance_m: float) 
     ds = _slide(flat_run, distance_m)
     idx = animation._frame_indices(ds["time"].values, 40)
     shp = get_shape("cuboid")
-    d = animation._frames_data(ds, shp, idx)
+    d = scene.frames_data(ds, shp, idx)
     length_um = float(np.ptp(np.asarray(shp.outline)[:, 0])) * 1e6
     for k, poly in enumerate(d["polys"]):
         (x0, x1), (y0, y1) = d["xlim"][k], d["ylim"][k]

@@ -1,12 +1,15 @@
-"""Figures of one run (matplotlib, no pyplot state: every function builds its own
-:class:`matplotlib.figure.Figure`, so it is safe under Agg, in threads and in tests).
+"""Figures of one run and of the shape library (viz layer).
+
+Matplotlib without pyplot state: every function builds its own
+:class:`matplotlib.figure.Figure`, so it is safe under Agg, in threads and in tests.
 
 :func:`plot_run` draws the standard three-panel summary of a :func:`tumblemc.simulate`
-Dataset; :func:`side_view_outline` gives the robot's outline in plane coordinates at one
-recorded instant (reused by animations).
+Dataset; :func:`plot_shapes` draws the shape library; :func:`side_view_outline` gives the
+robot's outline in plane coordinates at one recorded instant (reused by the animations of
+:mod:`tumblemc.viz.scene`).
 
 Plane coordinates: ``s = p . u`` (uphill distance along the plane) and ``h = p . n``
-(height above the plane), with ``u`` and ``n`` from :func:`tumblemc.simulate.plane_frame`.
+(height above the plane), with ``u`` and ``n`` from :func:`tumblemc.model.frames.plane_frame`.
 The robot tumbles about world x (= the plane's tangent ``t``), so the body's y-z outline
 projects onto the (s, h) plane without distortion.
 """
@@ -24,7 +27,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from tumblemc.model.frames import plane_frame, quat_to_matrix
-from tumblemc.model.shapes.library import get_shape
+from tumblemc.model.shapes.library import SHAPES, get_shape
 from tumblemc.model.shapes.types import Shape
 
 UM = 1e6  # metres -> micrometres
@@ -37,6 +40,20 @@ MODE_LABELS = ("none", "point/line", "face")
 
 
 def shape_of(ds: xr.Dataset, shape: str | Shape | None) -> Shape:
+    """The shape of a run: ``shape`` if given, else the library shape named in its attrs.
+
+    Parameters
+    ----------
+    ds : Dataset
+        A run from :func:`tumblemc.simulate`.
+    shape : str or Shape or None
+        The run's shape or its name; None takes ``ds.attrs["shape"]`` (a shape built
+        with non-default dimensions must be passed).
+
+    Returns
+    -------
+    Shape
+    """
     return get_shape(ds.attrs.get("shape", "cuboid") if shape is None else shape)
 
 
@@ -45,15 +62,21 @@ def side_view_outline(ds: xr.Dataset, shape: str | Shape | None, i: int) -> tupl
 
     Parameters
     ----------
-    ds : Dataset from :func:`tumblemc.simulate`.
-    shape : the run's :class:`~tumblemc.shapes.Shape` or its name; ``None`` takes
+    ds : Dataset
+        A run from :func:`tumblemc.simulate`.
+    shape : str or Shape or None
+        The run's :class:`~tumblemc.model.shapes.Shape` or its name; None takes
         ``ds.attrs["shape"]`` (a shape built with non-default dimensions must be passed).
-    i : index along ``time`` (negative counts from the end).
+    i : int
+        Index along ``time`` (negative counts from the end).
 
     Returns
     -------
-    (s, h) : arrays, m. ``s`` is the uphill coordinate along the plane measured from the
-        centre of mass at ``time[0]``; ``h`` the height above the plane (0 on the plane).
+    s : (m,) float64 array
+        Uphill coordinate along the plane of each outline point, m, measured from the
+        centre of mass at ``time[0]``.
+    h : (m,) float64 array
+        Height above the plane, m (0 on the plane).
     """
     shp = shape_of(ds, shape)
     fr = plane_frame(float(ds.attrs.get("incline_deg", 0.0)))
@@ -68,6 +91,18 @@ def side_view_outline(ds: xr.Dataset, shape: str | Shape | None, i: int) -> tupl
 
 
 def run_label(ds: xr.Dataset) -> str:
+    """One-line description of a run's settings from its attrs (figure titles).
+
+    Parameters
+    ----------
+    ds : Dataset
+        A run from :func:`tumblemc.simulate`.
+
+    Returns
+    -------
+    str
+        E.g. ``"cuboid robot, mu=0.3, incline=30 deg, B=20 mT, f=1 Hz"``.
+    """
     a = ds.attrs
     parts = [f"{a.get('shape', '?')} robot"]
     if "mu" in a:
@@ -299,7 +334,7 @@ def plot_shapes(
     *,
     dpi: int = 150,
 ) -> Figure:
-    """The shape library in the body y-z plane, one panel per shape; PNG if ``path``.
+    """Draw the shape library in the body y-z plane, one panel per shape.
 
     Each panel fills the real outline, draws the hull faces of the profile (blue: real
     face, labelled with its adhering area in µm²; red: line contact, labelled "line"),
@@ -309,7 +344,7 @@ def plot_shapes(
     Parameters
     ----------
     shapes : sequence of str or Shape, optional
-        Names in :data:`tumblemc.shapes.SHAPES` or Shape objects; default: every shape
+        Names in :data:`tumblemc.model.shapes.SHAPES` or Shape objects; default: every shape
         of the library.
     path : path-like, optional
         Where to save the figure (any matplotlib format; PNG by its suffix).
@@ -321,8 +356,6 @@ def plot_shapes(
     matplotlib.figure.Figure
         A figure not registered with pyplot (nothing global to close).
     """
-    from tumblemc.model.shapes.library import SHAPES
-
     names = list(SHAPES) if shapes is None else list(shapes)
     if not names:
         raise ValueError("shapes=[] is not allowed (allowed: None for all, or at least one shape)")

@@ -1,4 +1,12 @@
-"""TODO docstring (split from tumblemc/plotting_study.py)."""
+"""Figures of sensitivity analysis and scenario discovery (viz layer).
+
+:func:`plot_sobol` draws Sobol indices (:func:`tumblemc.analysis.sobol.sobol_indices`);
+:func:`plot_success_vs_parameter` draws a study cell's outcome and success fraction
+against each uncertain parameter; :func:`plot_prim` draws a PRIM peeling trajectory
+(:mod:`tumblemc.analysis.prim`). Every function returns its
+:class:`~matplotlib.figure.Figure` and saves it when given ``path``; nothing touches
+pyplot.
+"""
 
 from __future__ import annotations
 
@@ -12,8 +20,7 @@ from matplotlib.figure import Figure
 from tumblemc.analysis.maps import proportion_ci
 from tumblemc.analysis.prim import PrimResult
 from tumblemc.analysis.screening import cell_mask, uncertain_parameters, valid_mask
-from tumblemc.viz.study import panel_grid
-from tumblemc.viz.style import CMAP, save_figure
+from tumblemc.viz.style import CMAP, panel_grid, save_figure
 
 
 def plot_sobol(indices: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
@@ -21,8 +28,10 @@ def plot_sobol(indices: xr.Dataset, path: str | os.PathLike[str] | None = None) 
 
     Parameters
     ----------
-    indices : Dataset from :func:`tumblemc.sensitivity.sobol_indices`.
-    path : file to save the figure to; None saves nothing.
+    indices : Dataset
+        Indices from :func:`tumblemc.analysis.sobol.sobol_indices`.
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
 
     Returns
     -------
@@ -77,16 +86,25 @@ def plot_success_vs_parameter(
 
     Parameters
     ----------
-    runs : study Dataset.
-    shape, substrate : the cell.
-    incline_deg : one incline (degree), or None for every incline of the shape and
-        substrate (a colour per incline).
-    path : file to save the figure to; None saves nothing.
-    outcome : per-run variable scattered on the left axis.
-    bins : equal-count bins of the parameter for the success curve.
-    level, method : interval of the success fraction per bin
-        (:func:`tumblemc.analysis.proportion_ci`).
-    field_mT, freq_hz : the field setting, needed when the study sweeps it.
+    runs : Dataset
+        Study runs.
+    shape, substrate : str
+        The cell.
+    incline_deg : float, optional
+        One incline (degree), or None for every incline of the shape and substrate (a
+        colour per incline).
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
+    outcome : str
+        Per-run variable scattered on the left axis.
+    bins : int
+        Equal-count bins of the parameter for the success curve, >= 1.
+    level : float
+        Confidence level of the interval of the success fraction per bin.
+    method : {"wilson", "clopper-pearson"}
+        Its method (:func:`tumblemc.analysis.maps.proportion_ci`).
+    field_mT, freq_hz : float, optional
+        The field setting (mT, Hz), needed when the study sweeps it.
 
     Returns
     -------
@@ -162,9 +180,11 @@ def plot_prim(trajectory: xr.Dataset | PrimResult, path: str | os.PathLike[str] 
 
     Parameters
     ----------
-    trajectory : the ``trajectory`` Dataset of a :class:`~tumblemc.sensitivity.PrimResult`
-        (or the result itself).
-    path : file to save the figure to; None saves nothing.
+    trajectory : Dataset or PrimResult
+        The ``trajectory`` Dataset of a :class:`~tumblemc.analysis.prim.PrimResult`, or
+        the result itself.
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
 
     Returns
     -------

@@ -1,13 +1,11 @@
-"""Figures of a robustness study (matplotlib object API, no pyplot state: safe under Agg).
+"""Figures of a robustness study (viz layer; matplotlib object API, no pyplot state).
 
 :func:`plot_success_heatmap` and :func:`plot_success_curves` draw the maps of
-:func:`tumblemc.analysis.maps`; :func:`plot_ratio_distribution` draws the runs themselves;
-:func:`plot_study` writes all three to a folder. Every function returns its
-:class:`~matplotlib.figure.Figure` and saves it when given ``path``.
-
-Sensitivity figures (:mod:`tumblemc.sensitivity`): :func:`plot_sobol` (Sobol indices),
-:func:`plot_success_vs_parameter` (outcome and success fraction against each uncertain
-parameter of a cell) and :func:`plot_prim` (PRIM peeling trade-off).
+:func:`tumblemc.analysis.maps.maps`; :func:`plot_ratio_distribution` draws the runs
+themselves; :func:`plot_critical_distribution` and :func:`plot_critical_vs_grid` draw a
+critical-incline study; :func:`plot_study` writes a study's figures to a folder. Every
+function returns its :class:`~matplotlib.figure.Figure` and saves it when given ``path``.
+The sensitivity figures are in :mod:`tumblemc.viz.sensitivity`.
 
 Panels: one column per substrate; when the study sweeps the field (``field_mT`` or
 ``freq_hz`` is a dimension of the maps), one row per field setting.
@@ -30,7 +28,7 @@ from matplotlib.patches import Rectangle
 
 from tumblemc.analysis.maps import check_summary, sort_runs
 from tumblemc.schema import SWEEP_DIMS
-from tumblemc.viz.style import CMAP, GOLDEN, SWEEP_LABELS, save_figure
+from tumblemc.viz.style import CMAP, GOLDEN, SWEEP_LABELS, panel_grid, save_figure
 
 
 def _sweep_rows(ds: xr.Dataset, dims: Sequence[str]) -> list[dict[str, Any]]:
@@ -53,12 +51,6 @@ def _substrates(available: np.ndarray, substrate: str | Sequence[str] | None) ->
     return wanted
 
 
-def panel_grid(nrows: int, ncols: int, panel_w: float, panel_h: float) -> tuple[Figure, np.ndarray]:
-    fig = Figure(figsize=(panel_w * ncols + 1.2, panel_h * nrows + 0.6), layout="constrained")
-    axes = np.asarray(fig.subplots(nrows, ncols, squeeze=False))
-    return fig, axes
-
-
 def _title(sub: str, row: dict[str, Any]) -> str:
     label = _row_label(row)
     return f"substrate: {sub}" + (f"\n{label}" if label else "")
@@ -78,9 +70,12 @@ def plot_success_heatmap(
 
     Parameters
     ----------
-    maps : Dataset from :func:`tumblemc.analysis.maps`.
-    substrate : a substrate name, a list of them, or None for every substrate.
-    path : file to save the figure to (PNG, PDF, ... by extension); None saves nothing.
+    maps : Dataset
+        Maps from :func:`tumblemc.analysis.maps.maps`.
+    substrate : str or sequence of str, optional
+        A substrate name, a list of them, or None for every substrate.
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
 
     Returns
     -------
@@ -146,8 +141,10 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
 
     Parameters
     ----------
-    maps : Dataset from :func:`tumblemc.analysis.maps`.
-    path : file to save the figure to; None saves nothing.
+    maps : Dataset
+        Maps from :func:`tumblemc.analysis.maps.maps`.
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
 
     Returns
     -------
@@ -188,8 +185,10 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
 
     Parameters
     ----------
-    runs : study Dataset (variables over ``run``, see :mod:`tumblemc.analysis`).
-    path : file to save the figure to; None saves nothing.
+    runs : Dataset
+        Study runs (variables over ``run``).
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
 
     Returns
     -------
@@ -277,10 +276,14 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
 
     Parameters
     ----------
-    runs : study Dataset.
-    maps : its maps, from :func:`tumblemc.analysis.maps`.
-    out_dir : folder for ``success_heatmap.png``, ``success_curves.png`` and
-        ``ratio_distribution.png``.
+    runs : Dataset
+        Study runs.
+    maps : Dataset
+        Its maps, from :func:`tumblemc.analysis.maps.maps`.
+    out_dir : path-like
+        Folder for ``success_heatmap.png``, ``success_curves.png`` and
+        ``ratio_distribution.png`` (a critical-incline study: ``success_curves.png`` and
+        ``critical_incline_distribution.png``).
 
     Returns
     -------
@@ -318,9 +321,22 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
 
 
 def plot_critical_distribution(runs: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Histogram of the critical incline per shape, one panel per substrate, for a
-    ``mode = "critical_incline"`` study; samples outside the range are counted in the
-    legend (fails at the minimum / climbs at the maximum), invalid runs too."""
+    """Histogram of the critical incline per shape, one panel per substrate.
+
+    Parameters
+    ----------
+    runs : Dataset
+        Runs of a ``mode = "critical_incline"`` study (``critical_incline_deg``,
+        ``censored``, ``status`` over ``run``).
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
+
+    Returns
+    -------
+    Figure
+        Samples outside the incline range are counted in the legend (fails at the
+        minimum / climbs at the maximum), invalid runs too.
+    """
     subs = sorted({str(v) for v in runs["substrate"].values})
     shapes = sorted({str(v) for v in runs["shape"].values})
     lo, hi = float(runs.attrs.get("incline_range_min", 0.0)), float(runs.attrs.get("incline_range_max", 60.0))
@@ -347,8 +363,24 @@ def plot_critical_distribution(runs: xr.Dataset, path: str | os.PathLike[str] | 
 
 
 def plot_critical_vs_grid(crit_maps: xr.Dataset, grid_maps: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
-    """The critical-incline curve (continuous, with its CI band) against the direct grid
-    map (points with CI bars), one panel per substrate, a colour per shape."""
+    """Compare the critical-incline curve with the direct grid map.
+
+    Parameters
+    ----------
+    crit_maps : Dataset
+        Maps of a critical-incline study: ``p_success`` and its interval over a fine
+        ``incline_deg``.
+    grid_maps : Dataset
+        Maps of a grid study of the same cells.
+    path : path-like, optional
+        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
+
+    Returns
+    -------
+    Figure
+        One panel per substrate, a colour per shape: the critical-incline curve
+        (continuous, with its CI band) and the grid's points with CI bars.
+    """
     subs = [str(s) for s in grid_maps["substrate"].values]
     fig = Figure(figsize=(6.5 * len(subs), 4.2), layout="constrained")
     axs = np.atleast_1d(fig.subplots(1, len(subs), squeeze=False)[0])
