@@ -2,7 +2,7 @@
 
 Measures, on one fixed study (cuboid, aluminum, 0/15/30 deg, 1 Hz, 2 periods):
 
-- the bare batch kernel (``tumblemc.batch.simulate_rows`` over the design, in-process);
+- the bare batch kernel (``tumblemc.model.rows.simulate_rows`` over the design, in-process);
 - the engine in-process (``run_study(client=None)``): its overhead per run over the bare
   kernel (sampling, planning, shards, assembly, netCDF);
 - the engine on an embedded LocalCluster with 1 and 2 worker processes: runs per second

@@ -172,7 +172,7 @@ tree.close()""",
         """cub = maps.sel(shape="cuboid", substrate="aluminum")
 for th in cub.incline_deg.values:
     c = cub.sel(incline_deg=th)
-    print(f"{th:4.0f} deg: p = {float(c.p_success):.2f}  [{float(c.p_success_lower):.2f}, {float(c.p_success_upper):.2f}]  n_valid = {int(c.n_valid)}")""",
+    print(f"{th:4.0f} deg: p = {float(c.p_success):.2f}  [{float(c.p_success_lower):.2f}, {float(c.p_success_upper):.2f}]  n_valid = {int(c.n_valid)}")""",  # noqa: E501 (notebook text, kept as the reader sees it)
     ),
     (
         "code",

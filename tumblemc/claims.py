@@ -1,5 +1,8 @@
-"""``tumblemc validate``: the paper's scenarios, a claims table, a dt-convergence table,
-robustness runs and figures (MODEL.md, "What the paper reports").
+"""The paper's claims checked by simulation: ``tumblemc validate`` (viz/cli level).
+
+Runs the paper's scenarios and writes a claims table, a dt-convergence table, robustness
+rows and figures (MODEL.md, "What the paper reports"). It sits above the viz layer: it
+runs simulations and draws figures, so only the command line imports it.
 
 Nothing here is tuned: every row is a plain run of :func:`tumblemc.simulate` with the
 presets of paper Tables 1 and 3, and the verdict compares the measured value with the
@@ -21,11 +24,13 @@ from matplotlib.figure import Figure
 from tumblemc.model.outcome import summarize
 from tumblemc.model.params import PRESETS
 from tumblemc.model.run import DEFAULT_DT, simulate
+from tumblemc.model.shapes.library import get_shape
 
+#: time steps of the dt-convergence table, s
 CONVERGENCE_DTS = (5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
 
-
-CONVERGENCE_CASES = (
+#: scenarios of the dt-convergence table: (name, keyword arguments of simulate)
+CONVERGENCE_CASES: tuple[tuple[str, dict[str, Any]], ...] = (
     ("flat paper 1 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=1.0)),
     ("flat paper 10 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=10.0)),
     ("paper 45 deg", dict(preset="paper", incline_deg=45.0, freq_hz=1.0)),
@@ -35,19 +40,17 @@ CONVERGENCE_CASES = (
 
 
 _C = PRESETS["paper"].adhesion_C
-
-
 _L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
 
-
+#: adhesion plateaus of the paper cuboid: face (C L W) and end (C W H), N
 FACE_ADHESION = _C * _L * _W  # paper: 1.189e-6 N
-
-
 END_ADHESION = _C * _W * _H  # paper: 1.486e-7 N
 
 
 @dataclass
 class Row:
+    """One row of the claims table: a quantity measured in a scenario against the paper's claim."""
+
     claim_id: str
     scenario: str
     quantity: str
@@ -59,21 +62,19 @@ class Row:
 
 @dataclass
 class Report:
+    """What :func:`run_validation` collects: the claims table and the robustness rows."""
+
     rows: list[Row] = field(default_factory=list)
     robustness: list[dict[str, Any]] = field(default_factory=list)
 
     def add(self, *args: Any, **kw: Any) -> None:
+        """Append a :class:`Row` built from the arguments."""
         self.rows.append(Row(*args, **kw))
-
-
-def _duration(freq_hz: float, periods: float = 2.0) -> float:
-    return periods / freq_hz
 
 
 def _run(periods: float = 2.0, **kw: Any) -> tuple[Any, dict[str, Any], float]:
     t0 = time.perf_counter()
-    f = kw.get("freq_hz", 1.0)
-    ds = simulate(duration_s=_duration(f, periods), **kw)
+    ds = simulate(duration_s=periods / kw.get("freq_hz", 1.0), **kw)
     s = summarize(ds)
     return ds, s, time.perf_counter() - t0
 
@@ -194,7 +195,10 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         "pass" if falls else "FAIL",
         ""
         if falls
-        else "the model skids forward while it pivots on an edge (line contact, adhesion ~0), so the ratio exceeds 1 as f grows: the opposite sign of the paper's claim; the paper's numerics damp the skid (rows S2)",
+        else (
+            "the model skids forward while it pivots on an edge (line contact, adhesion ~0), so the ratio exceeds 1 as f grows: "
+            "the opposite sign of the paper's claim; the paper's numerics damp the skid (rows S2)"
+        ),
     )
     for f in (1, 4, 10):
         _, s, _ = _run(
@@ -233,7 +237,8 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         "C5",
         "paper, 45 deg, adhesion series",
         "plateaus found (face C L W, end C W H); line contact = fraction x smaller face",
-        f"face {'yes' if face else 'no'} ({FACE_ADHESION:.4g} N), end {'yes' if end else 'no'} ({END_ADHESION:.4g} N), line max {line_max:.3g} N",
+        f"face {'yes' if face else 'no'} ({FACE_ADHESION:.4g} N), end {'yes' if end else 'no'} ({END_ADHESION:.4g} N), "
+        f"line max {line_max:.3g} N",
         "1.189e-6 N and 1.486e-7 N plateaus, ~0 in line contact",
         "pass" if ok else "FAIL",
     )
@@ -249,7 +254,6 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
 
 SHAPE_ORDER = ("cuboid", "spiked", "spiked_ends", "curved")
 
-
 #: paper (MODEL.md "What the paper reports"): aluminum, 20 mT, 1 Hz
 SHAPE_CLIMBS = {
     20: dict.fromkeys(SHAPE_ORDER, True),
@@ -259,8 +263,11 @@ SHAPE_CLIMBS = {
 
 
 def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
-    """The paper's shape comparison: speeds at 20 mT, 10 Hz on paper and aluminum (curved
-    fastest, cuboid slowest) and the aluminum climb table at 20/30/45 deg, 1 Hz."""
+    """Check the paper's shape comparison and add its rows to ``rep``.
+
+    Speeds at 20 mT, 10 Hz on paper and aluminum (curved fastest, cuboid slowest) and the
+    aluminum climb table at 20/30/45 deg, 1 Hz; the speed figure goes to ``figdir``.
+    """
     periods = 4.0 if quick else 10.0
     speeds: dict[str, dict[str, float]] = {}
     for preset in ("paper", "aluminum"):
@@ -292,8 +299,6 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     x = np.arange(len(SHAPE_ORDER))
     for j, preset in enumerate(("paper", "aluminum")):
         ax.bar(x + 0.38 * (j - 0.5), [speeds[preset][k] * 1e3 for k in SHAPE_ORDER], 0.38, label=preset)
-    from tumblemc.model.shapes.library import get_shape
-
     ax.plot(x, [get_shape(k).hull_perimeter * 10.0 * 1e3 for k in SHAPE_ORDER], "k_", ms=30, mew=2, label="no slip (hull perimeter x f)")
     ax.set(xticks=x, xticklabels=SHAPE_ORDER, ylabel="mean speed (mm/s)", title="flat substrate, 20 mT, 10 Hz")
     ax.legend(fontsize=8)
@@ -341,7 +346,7 @@ def convergence(quick: bool = False) -> list[dict[str, Any]]:
     for name, kw in CONVERGENCE_CASES:
         for torque in ("start", "end"):
             for dt in dts:
-                _, s, wall = _run(dt=dt, torque=torque, **kw)  # type: ignore[arg-type]
+                _, s, wall = _run(dt=dt, torque=torque, **kw)
                 out.append(
                     {
                         "case": name,
@@ -396,12 +401,8 @@ def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
         worst_pen = max(worst_pen, s["max_penetration"])
         fails += s["failed_steps"]
         yaw = float(np.abs(ds["omega"].values[:, 2]).max())
-        _robust(
-            rep,
-            f"non-planar {k}: axis {np.round(axis / np.linalg.norm(axis), 2).tolist()}, {ang:.1f} deg (max |w_z| {yaw:.1f} rad/s)",
-            s,
-            wall,
-        )
+        tilt = f"axis {np.round(axis / np.linalg.norm(axis), 2).tolist()}, {ang:.1f} deg"
+        _robust(rep, f"non-planar {k}: {tilt} (max |w_z| {yaw:.1f} rad/s)", s, wall)
     ok = fails == 0 and worst_pen <= 1e-3 * _H
     rep.add(
         "R1",
@@ -432,9 +433,21 @@ def _fmt(v: Any) -> str:
 
 
 def run_validation(out_dir: str | Path = "validation", quick: bool = False) -> int:
-    """Run every scenario, write ``claims.{md,csv}``, ``convergence.{md,csv}``,
-    ``robustness.{md,csv}`` and figures under ``out_dir``. Returns 0 (the report holds the
-    verdicts; a claim that is not reproduced is a finding, not an error)."""
+    """Run every scenario and write the tables and figures under ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder for ``claims.{md,csv}``, ``convergence.{md,csv}``, ``robustness.{md,csv}``
+        and ``figures/`` (created if needed).
+    quick : bool
+        Shorter runs and fewer time steps (a smoke run, not the report).
+
+    Returns
+    -------
+    int
+        0: a claim that is not reproduced is a finding in the report, not an error.
+    """
     out = Path(out_dir)
     figdir = out / "figures"
     figdir.mkdir(parents=True, exist_ok=True)

@@ -1,4 +1,7 @@
-"""``tumblemc bench``: per-step cost of the time-stepper (a benchmark, never a test).
+"""Per-step cost of the time-stepper: ``tumblemc bench`` (a benchmark, never a test).
+
+It sits at the viz/cli level (it runs simulations and prints a table), next to the
+command line that calls it; ``benchmarks/step_cost.py`` runs the same.
 
 Prints, for every shape (``--shapes`` to choose) on the 45 deg paper incline and on flat
 paper at 1 and 10 Hz:
@@ -17,6 +20,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from typing import Any
 
 from tumblemc.kernels import layout as L
 from tumblemc.model.run import DEFAULT_DT, prepare, run_inputs, run_spec
@@ -39,7 +43,28 @@ def compile_time(cache_dir: str) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
-def measure(kw: dict, duration_s: float, repeats: int, dt: float | None = None) -> dict[str, float]:
+def measure(kw: dict[str, Any], duration_s: float, repeats: int, dt: float | None = None) -> dict[str, float]:
+    """Time the stepper on one scenario (compiled beforehand, outside the timing).
+
+    Parameters
+    ----------
+    kw : dict
+        Keyword arguments of :func:`tumblemc.simulate` that set the scenario (shape,
+        preset, incline_deg, freq_hz, ...).
+    duration_s : float
+        Simulated seconds per run.
+    repeats : int
+        Runs; the median wall time is reported.
+    dt : float, optional
+        Time step, s (default: the model's default).
+
+    Returns
+    -------
+    dict
+        ``steps``, ``us_per_step`` (median wall µs per step), ``newton_per_step`` (mean
+        Newton iterations per step), ``ms_per_sim_s`` (wall ms per simulated second) and
+        ``spread_pct`` ((max - min) / median of the wall times, %).
+    """
     spec = prepare(run_inputs(duration_s=duration_s, dt=dt, **kw))
     run_spec(prepare(run_inputs(duration_s=0.002, dt=dt, **kw)))  # compile outside the timing
     walls = []
@@ -60,6 +85,7 @@ def measure(kw: dict, duration_s: float, repeats: int, dt: float | None = None) 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the benchmark from command-line arguments (``tumblemc bench --help``); returns 0."""
     ap = argparse.ArgumentParser(prog="tumblemc bench", description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5, help="runs per scenario; the median is reported (default 5)")
     ap.add_argument("--duration-s", type=float, default=2.0, help="simulated seconds per run (default 2)")
@@ -78,9 +104,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for shape in shapes:
         for name, kw in SCENARIOS:
             r = measure(dict(kw, shape=shape), dur, reps)
-            print(
-                f"{shape:12s} {name:22s} {r['steps']:7d} {r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}"
-            )
+            cost = f"{r['us_per_step']:8.2f} {r['newton_per_step']:11.2f} {r['ms_per_sim_s']:12.1f} {r['spread_pct']:8.1f}"
+            print(f"{shape:12s} {name:22s} {int(r['steps']):7d} {cost}")
     if not (a.quick or a.no_compile):
         with tempfile.TemporaryDirectory() as d:
             cold = compile_time(d)

@@ -1,4 +1,4 @@
-"""Analytic benchmark problems shared by tests, docs and studies.
+"""Analytic benchmark problems shared by tests, docs and studies (model level).
 
 Every function here has a known answer, so an estimator can be checked against it:
 
@@ -13,7 +13,8 @@ Every function here has a known answer, so an estimator can be checked against i
   :mod:`tumblemc.analysis`) whose outcome depends on ``mu`` only, with an all-success cell,
   a perfectly separated cell and invalid runs.
 
-Nothing here runs the simulator.
+Nothing here runs the simulator, and nothing here imports above the model layer, so
+every layer's tests can use it.
 
 References
 ----------
@@ -100,8 +101,10 @@ def linear_additive(X: ArrayLike, coefficients: Sequence[float]) -> np.ndarray:
 
     Parameters
     ----------
-    X : (n, d) float array, inputs on the unit cube.
-    coefficients : d floats ``c_i``.
+    X : (n, d) array_like of float
+        Inputs on the unit cube.
+    coefficients : sequence of d float
+        The coefficients ``c_i``.
 
     Returns
     -------
@@ -134,8 +137,10 @@ def box_failure(X: ArrayLike, box: Mapping[int, tuple[float, float]] | None = No
 
     Parameters
     ----------
-    X : (n, d) float array, inputs on the unit cube.
-    box : ``{column: (lo, hi)}``; columns not named are unrestricted. Default
+    X : (n, d) array_like of float
+        Inputs on the unit cube.
+    box : mapping of int to (float, float), optional
+        ``{column: (lo, hi)}``; columns not named are unrestricted. Default
         :data:`BOX_FAILURE_BOX`: ``x1 > 0.7 and x2 < 0.3`` (columns 0 and 1), support 0.09
         for uniform inputs.
 
@@ -177,13 +182,20 @@ def synthetic_runs(
 
     Parameters
     ----------
-    seed : root seed of the draws.
-    per_cell : runs per cell.
-    slope : log-odds of climbing per standard deviation of ``mu`` (the true standardized
+    seed : int
+        Root seed of the draws.
+    per_cell : int
+        Runs per cell.
+    slope : float
+        Log-odds of climbing per standard deviation of ``mu`` (the true standardized
         logistic coefficient); the other parameters have coefficient 0.
-    shapes, substrates, inclines : cell grid (``field_mT = 20``, ``freq_hz = 1``).
-    invalid_fraction : fraction of runs with ``status = 1`` (NaN progress ratio, not
-        climbed), drawn independently of the parameters.
+    shapes, substrates : sequence of str
+        Cell grid.
+    inclines : sequence of float
+        Cell grid, degree (every cell has ``field_mT = 20``, ``freq_hz = 1``).
+    invalid_fraction : float
+        Fraction of runs with ``status = 1`` (NaN progress ratio, not climbed), drawn
+        independently of the parameters.
 
     Returns
     -------
