@@ -48,7 +48,7 @@ SETTINGS = settings(
 
 def _planes(normals, ds):  # type: ignore[no-untyped-def]
     cd = np.zeros((len(ds), 4))
-    for i, (nb, d) in enumerate(zip(normals, ds)):
+    for i, (nb, d) in enumerate(zip(normals, ds, strict=True)):
         nb = np.asarray(nb, dtype=float)
         cd[i, :3] = nb / np.linalg.norm(nb)
         cd[i, 3] = d
@@ -60,7 +60,7 @@ def cuboid(hx=2.0, hy=4.0, hz=0.5, centre=(0.0, 0.0, 0.0)):  # type: ignore[no-u
     c = np.asarray(centre, dtype=float)
     normals = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
     halves = [hx, hx, hy, hy, hz, hz]
-    ds = [hv + np.dot(nb, c) for nb, hv in zip(normals, halves)]
+    ds = [hv + np.dot(nb, c) for nb, hv in zip(normals, halves, strict=True)]
     return _planes(normals, ds)
 
 
@@ -313,7 +313,7 @@ def test_fb_cancellation_free(a, b):  # type: ignore[no-untyped-def]
 
 @pytest.mark.parametrize("a, b", [(1e-200, 1e-200), (1e-160, 1e-170), (1e-150, 1e-160)])
 def test_fb_tiny_positive_pairs(a, b):  # type: ignore[no-untyped-def]
-    """a * b would underflow; the kernel divides first."""
+    """A * b would underflow; the kernel divides first."""
     ref = fb_exact(a, b)
     assert ref > 0.0
     assert abs(fb(a, b) - ref) <= FB_RTOL * ref
@@ -423,10 +423,13 @@ def test_kink_row_in_generalised_jacobian(kinds, seed, torque_end, theta):  # ty
 
 @pytest.mark.parametrize("tilt", [1e-5, 1e-3, 3e-2])
 def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
-    """``stepper._snap_flat`` (strategy 4): from the cuboid's rest pose tilted by ``tilt``
+    """The snap guess lays the nearest face flat.
+
+    ``stepper._snap_flat`` (strategy 4): from the cuboid's rest pose tilted by ``tilt``
     about a horizontal axis, the angular velocity it returns lays the bottom face flat at
     the end of the step up to the quaternion update's own error (angle 2 atan(h|w|/2)
-    instead of h|w|: third order); a face tilted beyond SNAP_MAX_TILT is refused."""
+    instead of h|w|: third order); a face tilted beyond SNAP_MAX_TILT is refused.
+    """
     from tumblemc.kernels.geometry import quat_step, quat_to_rot
     from tumblemc.kernels.stepper import SNAP_MAX_TILT, _snap_flat
     from tumblemc.model.frames import quat_to_matrix, rot_to_quat
@@ -466,8 +469,11 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
 
 @pytest.mark.parametrize("seed", range(40))
 def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
-    """``lu_factor``/``lu_solve`` (rows left in place, nonzero lists) solve sparse systems
-    like numpy, pivot ties included, and report exactly singular ones."""
+    """The LU factorisation and solve agree with numpy.
+
+    ``lu_factor``/``lu_solve`` (rows left in place, nonzero lists) solve sparse systems
+    like numpy, pivot ties included, and report exactly singular ones.
+    """
     from tumblemc.kernels.newton import lu_factor, lu_solve
 
     rng = np.random.default_rng(seed)
@@ -493,8 +499,11 @@ def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", range(10))
 def test_residual_scratch_helpers_match_geometry(seed: int) -> None:
-    """The residual's offset-addressed copies of the geometry kernels (no array views, see
-    ``residual.RS_*``) give bit-identical results to :mod:`tumblemc.kernels.geometry`."""
+    """The residual's geometry copies equal the geometry kernels.
+
+    The residual's offset-addressed copies of the geometry kernels (no array views, see
+    ``residual.RS_*``) give bit-identical results to :mod:`tumblemc.kernels.geometry`.
+    """
     from tumblemc.kernels import geometry as G
     from tumblemc.kernels import residual as Rk
 
@@ -529,9 +538,12 @@ def test_residual_scratch_helpers_match_geometry(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", range(12))
 def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
-    """``copy_amax`` copies J bit for bit and returns max |J| (signed zeros, subnormals, inf
+    """``copy_amax`` is a copy and its largest magnitude.
+
+    ``copy_amax`` copies J bit for bit and returns max |J| (signed zeros, subnormals, inf
     included), or -1 with a NaN so that ``lu_factor`` scans (skipping NaN) itself; the LU
-    with the given maximum is the LU with its own scan."""
+    with the given maximum is the LU with its own scan.
+    """
     from tumblemc.kernels.newton import copy_amax, lu_factor
 
     rng = np.random.default_rng(seed)

@@ -36,6 +36,7 @@ PACKAGE = "tumblemc"
 LAYERS: dict[str, int] = {
     "tumblemc.kernels": 0,
     # schema may import kernel constants; testing holds benchmark problems for every layer's tests
+    "tumblemc.version": 0,
     "tumblemc.schema": 1,
     "tumblemc.model": 1,
     "tumblemc.testing": 1,

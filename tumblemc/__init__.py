@@ -11,13 +11,6 @@ an alias of :mod:`tumblemc.model.shapes`), :data:`PRESETS`, :class:`Params` and
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("tumblemc")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.1.0.dev0"
-
 from tumblemc.io import open_result
 from tumblemc.model import shapes
 from tumblemc.model.outcome import summarize
@@ -26,6 +19,7 @@ from tumblemc.model.run import simulate
 from tumblemc.model.shapes import SHAPES, Shape, extruded, get_shape
 from tumblemc.study.config import load_config
 from tumblemc.study.engine import run_study
+from tumblemc.version import __version__
 
 __all__ = [
     "PRESETS",

@@ -26,10 +26,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tumblemc import __version__
 from tumblemc.io import write_run
 from tumblemc.model.params import Params
 from tumblemc.model.run import TORQUE_OPTIONS
+from tumblemc.version import __version__
 
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1

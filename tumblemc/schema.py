@@ -54,6 +54,14 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
 }
 
 
+def sampled_name(param: str) -> str:
+    """Run-table variable of a sampled parameter.
+
+    ``field_mT`` is a cell coordinate, so its sampled value is ``field_mT_sampled``.
+    """
+    return "field_mT_sampled" if param == "field_mT" else param
+
+
 def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) -> xr.Dataset:
     """Attach the attributes of ``schema`` to every variable of ``ds`` it names (in place).
 

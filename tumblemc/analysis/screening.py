@@ -36,8 +36,7 @@ from scipy.special import expit, ndtri
 from tumblemc.analysis.maps import cell_groups
 from tumblemc.model.outcome import is_valid
 from tumblemc.model.params import RANGES
-from tumblemc.schema import SENSITIVITY_COORD_ATTRS, SWEEP_DIMS
-from tumblemc.study.design import sampled_name
+from tumblemc.schema import SENSITIVITY_COORD_ATTRS, SWEEP_DIMS, sampled_name
 
 #: default cell coordinates of the per-cell analyses (swept field settings are added)
 CELL_BY = ("shape", "substrate", "incline_deg")

@@ -108,7 +108,7 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # zero-velocity and snap attempts come after every other one, so steps that converge
 # without them are unchanged.
 STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)  # fmt: skip
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)  # noqa: E501  # fmt: skip
 STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0)  # first mu
 SNAP_MAX_TILT = 0.05  # guess 4 only turns a face that is within this angle (rad) of flat
 N_ATTEMPTS = len(STRATEGY_GUESS)

@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from tumblemc import __version__
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import Workspace, make_workspace
 from tumblemc.kernels.residual import n_unknowns
@@ -20,6 +19,7 @@ from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.model.units import LENGTH_M, Units
 from tumblemc.schema import annotate
+from tumblemc.version import __version__
 
 #: default time step, s: the largest dt of the convergence study (docs/validation) whose
 #: verdicts match the finest dt (1.25e-5 s) in every case and whose progress ratios are

@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from tumblemc import __version__
 from tumblemc.analysis.critical import climbs_at
 from tumblemc.schema import (
     CRITICAL_ATTRS,
@@ -27,6 +26,7 @@ from tumblemc.schema import (
 )
 from tumblemc.study.config import StudyConfig
 from tumblemc.study.design import check_inclines, study_dt
+from tumblemc.version import __version__
 
 
 def git_sha() -> str:

@@ -21,7 +21,7 @@ from scipy.stats import qmc
 from tumblemc.model.params import RANGES
 from tumblemc.model.rows import RunRow, TimeGrid
 from tumblemc.model.run import DEFAULT_DT
-from tumblemc.schema import COORD_ATTRS
+from tumblemc.schema import COORD_ATTRS, sampled_name
 from tumblemc.study.checks import is_number
 from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells, config_hash, config_to_json
 from tumblemc.study.distributions import U_EPS, UNCERTAIN_PARAMS, ParamDistribution, nominal_value
@@ -92,14 +92,6 @@ def _check_mask(config: StudyConfig, keys: np.ndarray) -> np.ndarray:
     mask = np.zeros(n, dtype=bool)
     mask[np.lexsort((keys, score))[:k]] = True
     return mask
-
-
-def sampled_name(param: str) -> str:
-    """Run-table variable of a sampled parameter.
-
-    ``field_mT`` is a cell coordinate, so its sampled value is ``field_mT_sampled``.
-    """
-    return "field_mT_sampled" if param == "field_mT" else param
 
 
 def design(config: StudyConfig) -> xr.Dataset:

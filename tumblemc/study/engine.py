@@ -42,11 +42,11 @@ from tumblemc.analysis.critical import expand_to_grid
 from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
-from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES
+from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_name
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
-from tumblemc.study.design import batch_row, check_inclines, check_subset, design, grid_of, sampled_name
+from tumblemc.study.design import batch_row, check_inclines, check_subset, design, grid_of
 
 
 class StudyResult(NamedTuple):

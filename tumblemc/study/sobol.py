@@ -15,8 +15,9 @@ from numpy.typing import ArrayLike
 
 from tumblemc.analysis.sobol import saltelli_design, sobol_indices, split_saltelli
 from tumblemc.model.params import PRESETS
+from tumblemc.schema import sampled_name
 from tumblemc.study.config import StudyConfig
-from tumblemc.study.design import batch_row, run_kwargs, sampled_name
+from tumblemc.study.design import batch_row, run_kwargs
 from tumblemc.study.distributions import nominal_value
 
 

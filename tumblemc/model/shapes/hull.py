@@ -14,7 +14,7 @@ from fractions import Fraction
 import numpy as np
 
 from tumblemc.model.shapes.types import (
-    _GROUPS,
+    GROUPS,
     REL_TOL,
     cross2,
 )
@@ -242,9 +242,9 @@ def face_order(faces: list[HullFace]) -> list[tuple[str, HullFace]]:
     keyed = []
     for f in faces:
         n = f.normal
-        g = int(np.argmax([n @ np.array(d) for _, d in _GROUPS]))
-        ax = _GROUPS[g][1]
+        g = int(np.argmax([n @ np.array(d) for _, d in GROUPS]))
+        ax = GROUPS[g][1]
         rel = (math.atan2(n[1], n[0]) - math.atan2(ax[1], ax[0]) + math.pi) % (2.0 * math.pi) - math.pi
         keyed.append((g, rel, f))
     keyed.sort(key=lambda t: (t[0], t[1]))
-    return [(_GROUPS[g][0], f) for g, _, f in keyed]
+    return [(GROUPS[g][0], f) for g, _, f in keyed]

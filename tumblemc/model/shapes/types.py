@@ -71,7 +71,7 @@ ALUMINUM_ROBOT_LWH_M = (800e-6, 400e-6, 100e-6)
 
 
 #: body directions by which hull faces are grouped and ordered (the cuboid's order)
-_GROUPS = (("+y", (1.0, 0.0)), ("-y", (-1.0, 0.0)), ("+z", (0.0, 1.0)), ("-z", (0.0, -1.0)))
+GROUPS = (("+y", (1.0, 0.0)), ("-y", (-1.0, 0.0)), ("+z", (0.0, 1.0)), ("-z", (0.0, -1.0)))
 
 
 def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
