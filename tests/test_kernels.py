@@ -21,6 +21,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
+from tests import naive
 from tests.naive import block_index, fb_exact, fb_plain, fb_smooth_exact, naive_model, naive_residual
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import make_workspace
@@ -430,7 +431,7 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     the end of the step up to the quaternion update's own error (angle 2 atan(h|w|/2)
     instead of h|w|: third order); a face tilted beyond SNAP_MAX_TILT is refused.
     """
-    from tumblemc.kernels.geometry import quat_step, quat_to_rot
+    from tumblemc.kernels.geometry import N_QS, QS_Q, quat_step, quat_to_rot
     from tumblemc.kernels.stepper import SNAP_MAX_TILT, _snap_flat
     from tumblemc.model.frames import quat_to_matrix, rot_to_quat
     from tumblemc.model.run import prepare, run_inputs
@@ -456,12 +457,12 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     assert bottom_tilt(R0) == pytest.approx(tilt, rel=1e-6)
     w0 = np.zeros(3)
     w = np.zeros(3)
-    assert _snap_flat(R0, spec.prm, spec.geo, h, w0, w)
-    qn, Eq, Eqn, Jth, R1 = np.zeros(4), np.zeros((4, 3)), np.zeros((4, 3)), np.zeros((3, 3)), np.zeros((3, 3))
-    quat_step(rot_to_quat(R0), w, h, qn, Eq, Eqn, Jth)
-    quat_to_rot(qn, R1)
-    assert bottom_tilt(R1) <= tilt**3 + 1e-14
-    assert not _snap_flat(tilted(1.5 * SNAP_MAX_TILT), spec.prm, spec.geo, h, w0, w)
+    assert _snap_flat(R0.ravel(), spec.prm, spec.geo, h, w0, w)
+    blk, R1 = np.zeros(N_QS), np.zeros(9)
+    quat_step(rot_to_quat(R0), 0, w, 0, h, blk, 0)
+    quat_to_rot(blk, QS_Q, R1, 0)
+    assert bottom_tilt(R1.reshape(3, 3)) <= tilt**3 + 1e-14
+    assert not _snap_flat(tilted(1.5 * SNAP_MAX_TILT).ravel(), spec.prm, spec.geo, h, w0, w)
 
 
 # ---- the sparse LU of the Newton solver -------------------------------------------------
@@ -498,42 +499,72 @@ def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
 
 
 @pytest.mark.parametrize("seed", range(10))
-def test_residual_scratch_helpers_match_geometry(seed: int) -> None:
-    """The residual's geometry copies equal the geometry kernels.
+def test_geometry_kernels_against_naive_twins(seed: int) -> None:
+    """The one geometry implementation (offset form, shared by residual and time loop).
 
-    The residual's offset-addressed copies of the geometry kernels (no array views, see
-    ``residual.RS_*``) give bit-identical results to :mod:`tumblemc.kernels.geometry`.
+    At random offsets it equals itself at offset 0 bit for bit (the addressing), the naive
+    quaternion update, rotation and constraint of ``tests/naive.py`` to round-off, and its
+    derivative blocks (d(theta)/d(w+), the Hessian) match central differences.
     """
     from tumblemc.kernels import geometry as G
-    from tumblemc.kernels import residual as Rk
 
     rng = np.random.default_rng(seed)
-    s = np.zeros(Rk.N_RS)
-    sc = np.zeros(L.N_SC)
     q = rng.standard_normal(4)
-    sc[L.S_Q : L.S_Q + 4] = q / np.linalg.norm(q)
-    z = rng.standard_normal(30)
+    q /= np.linalg.norm(q)
+    w = rng.standard_normal(3)
     h = 10.0 ** rng.uniform(-3, 0)
-    Rk._quat_step(sc, z, h, s)
-    Rk._quat_to_rot(s)
-    qn, Jth, R = np.zeros(4), np.zeros((3, 3)), np.zeros((3, 3))
-    G.quat_step(sc[L.S_Q : L.S_Q + 4], z[3:6], h, qn, np.zeros((4, 3)), np.zeros((4, 3)), Jth)
-    G.quat_to_rot(qn, R)
-    assert np.array_equal(s[Rk.RS_QN : Rk.RS_QN + 4], qn)
-    assert np.array_equal(s[Rk.RS_JTH : Rk.RS_JTH + 9], Jth.ravel())
-    assert np.array_equal(s[Rk.RS_R : Rk.RS_R + 9], R.ravel())
+    k1, k2, k3 = (int(x) for x in rng.integers(1, 9, size=3))
+    qa, wa = np.zeros(k1 + 4), np.zeros(k2 + 3)
+    qa[k1:], wa[k2:] = q, w
+    blk0, blk = np.zeros(G.N_QS), np.full(k3 + G.N_QS, np.nan)
+    G.quat_step(q, 0, w, 0, h, blk0, 0)
+    G.quat_step(qa, k1, wa, k2, h, blk, k3)
+    assert np.array_equal(blk[k3:], blk0)
+    qn = blk0[G.QS_Q : G.QS_Q + 4]
+    assert np.allclose(qn, naive.quat_update(q, w, h), rtol=0, atol=1e-15)
+    R0, R = np.zeros(9), np.full(k1 + 9, np.nan)
+    G.quat_to_rot(qn, 0, R0, 0)
+    G.quat_to_rot(blk, k3 + G.QS_Q, R, k1)
+    assert np.array_equal(R[k1:], R0)
+    assert np.allclose(R0.reshape(3, 3), naive.rotmat(qn), rtol=0, atol=1e-15)
+    # d(theta)/d(w+): dR = [Jth dw]x R
+    jth = blk0[G.QS_JTH : G.QS_JTH + 9].reshape(3, 3)
+    eps = 1e-6
+    for j in range(3):
+        dw = np.zeros(3)
+        dw[j] = eps
+        Rp, Rm = naive.rotmat(naive.quat_update(q, w + dw, h)), naive.rotmat(naive.quat_update(q, w - dw, h))
+        S = (Rp - Rm) @ R0.reshape(3, 3).T / (2 * eps)
+        assert np.allclose([S[2, 1], S[0, 2], S[1, 0]], jth[:, j], rtol=0, atol=1e-6 * np.abs(jth).max())
+    # cross and skew
+    a, b = rng.standard_normal(3), rng.standard_normal(3)
+    o = np.zeros(k1 + 3)
+    G.cross(a, 0, b, 0, o, k1)
+    assert np.array_equal(o[k1:], np.cross(a, b))
+    m = np.zeros(k2 + 9)
+    G.skew(a, 0, m, k2)
+    assert np.allclose(m[k2:].reshape(3, 3) @ b, np.cross(a, b), rtol=0, atol=1e-15)
+    # constraints: value, gradient against the twin, Hessian against differences
     ctype = np.array([L.C_PLANE, L.C_CYL_X], np.int64)
-    cdata = np.array([[*(rng.standard_normal(3)), rng.standard_normal()], [rng.standard_normal(), rng.standard_normal(), 2.0, 0.0]])
+    nrm = rng.standard_normal(3)
+    cdata = np.array([[*(nrm / np.linalg.norm(nrm)), rng.standard_normal()], [rng.standard_normal(), rng.standard_normal(), 2.0, 0.0]])
     for c in range(2):
         y = rng.standard_normal(3)
-        s[Rk.RS_Y : Rk.RS_Y + 3] = y
-        s[Rk.RS_HB : Rk.RS_HB + 9] = np.nan  # must be overwritten
-        f1 = Rk._constraint(ctype[c], cdata, c, s)
-        g, H = np.zeros(3), np.zeros((3, 3))
-        f2 = G.constraint_eval(ctype[c], cdata[c], y, g, H)
-        assert f1 == f2
-        assert np.array_equal(s[Rk.RS_GB : Rk.RS_GB + 3], g)
-        assert np.array_equal(s[Rk.RS_HB : Rk.RS_HB + 9], H.ravel())
+        ya = np.zeros(k3 + 3)
+        ya[k3:] = y
+        out = np.full(k2 + G.N_CG, np.nan)  # every entry must be written
+        f = G.constraint_eval(ctype[c], cdata, c, ya, k3, out, k2)
+        f_ref, g_ref = naive.constraint(int(ctype[c]), cdata[c], y)
+        assert f == pytest.approx(f_ref, abs=1e-14)
+        g = out[k2 + G.CG_G : k2 + G.CG_G + 3]
+        H = out[k2 + G.CG_H : k2 + G.CG_H + 9].reshape(3, 3)
+        assert np.allclose(g, g_ref, rtol=0, atol=1e-15)
+        Hd = np.zeros((3, 3))
+        for j in range(3):
+            dy = np.zeros(3)
+            dy[j] = 1e-6
+            Hd[:, j] = (naive.constraint(int(ctype[c]), cdata[c], y + dy)[1] - naive.constraint(int(ctype[c]), cdata[c], y - dy)[1]) / 2e-6
+        assert np.allclose(H, Hd, rtol=1e-5, atol=1e-7)
 
 
 @pytest.mark.parametrize("seed", range(12))

@@ -2,148 +2,174 @@
 
 Quaternions are scalar first, ``Q = (w, x, y, z)``; angular velocities are in the world
 frame, so ``dQ/dt = 1/2 E(Q) omega`` with ``E`` from :func:`quat_E`.
+
+Every kernel here is the one implementation used by both the residual and the time loop,
+written on flat float64 arrays addressed by offsets (``a[ia:ia+3]`` a vector, ``o[io:io+9]``
+a 3x3 matrix row-major): an array view costs Numba an atomic reference-count pair, about a
+tenth of a time step in the residual. They are compiled with :func:`~._jit.jit_inline`, so
+a call is inlined into its caller.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from ._jit import jit
+from ._jit import jit_inline
 from .layout import C_CYL_X, C_PLANE
 
-
-@jit
-def cross(a, b, out):  # type: ignore[no-untyped-def]
-    """out = a x b (float64[3] each)."""
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-
-
-@jit
-def skew(a, out):  # type: ignore[no-untyped-def]
-    """out (3x3) = [a]x, the matrix with [a]x b = a x b."""
-    out[0, 0] = 0.0
-    out[0, 1] = -a[2]
-    out[0, 2] = a[1]
-    out[1, 0] = a[2]
-    out[1, 1] = 0.0
-    out[1, 2] = -a[0]
-    out[2, 0] = -a[1]
-    out[2, 1] = a[0]
-    out[2, 2] = 0.0
+#: layout of :func:`quat_step`'s output block: Q+ (4), E(Q) (4x3), E(Q+) (4x3), d(theta)/d(w+) (3x3)
+QS_Q = 0
+QS_E1 = 4
+QS_E2 = 16
+QS_JTH = 28
+N_QS = 37
+#: layout of :func:`constraint_eval`'s output block: gradient (3), Hessian (3x3)
+CG_G = 0
+CG_H = 3
+N_CG = 12
 
 
-@jit
-def quat_to_rot(q, R):  # type: ignore[no-untyped-def]
-    """Rotation matrix of the unit quaternion ``q`` (scalar first) into ``R`` (3x3)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    R[0, 0] = w * w + x * x - y * y - z * z
-    R[0, 1] = 2.0 * (x * y - w * z)
-    R[0, 2] = 2.0 * (x * z + w * y)
-    R[1, 0] = 2.0 * (x * y + w * z)
-    R[1, 1] = w * w - x * x + y * y - z * z
-    R[1, 2] = 2.0 * (y * z - w * x)
-    R[2, 0] = 2.0 * (x * z - w * y)
-    R[2, 1] = 2.0 * (y * z + w * x)
-    R[2, 2] = w * w - x * x - y * y + z * z
+@jit_inline
+def cross(a, ia, b, ib, o, io):  # type: ignore[no-untyped-def]
+    """o[io:io+3] = a[ia:ia+3] x b[ib:ib+3]."""
+    o[io] = a[ia + 1] * b[ib + 2] - a[ia + 2] * b[ib + 1]
+    o[io + 1] = a[ia + 2] * b[ib] - a[ia] * b[ib + 2]
+    o[io + 2] = a[ia] * b[ib + 1] - a[ia + 1] * b[ib]
 
 
-@jit
-def quat_E(q, E):  # type: ignore[no-untyped-def]
-    """E (4x3) with dQ/dt = 1/2 E(Q) omega for a world-frame angular velocity omega."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    E[0, 0] = -x
-    E[0, 1] = -y
-    E[0, 2] = -z
-    E[1, 0] = w
-    E[1, 1] = z
-    E[1, 2] = -y
-    E[2, 0] = -z
-    E[2, 1] = w
-    E[2, 2] = x
-    E[3, 0] = y
-    E[3, 1] = -x
-    E[3, 2] = w
+@jit_inline
+def skew(a, ia, o, io):  # type: ignore[no-untyped-def]
+    """o[io:io+9] (3x3 row-major) = [a[ia:ia+3]]x, the matrix with [a]x b = a x b."""
+    o[io] = 0.0
+    o[io + 1] = -a[ia + 2]
+    o[io + 2] = a[ia + 1]
+    o[io + 3] = a[ia + 2]
+    o[io + 4] = 0.0
+    o[io + 5] = -a[ia]
+    o[io + 6] = -a[ia + 1]
+    o[io + 7] = a[ia]
+    o[io + 8] = 0.0
 
 
-@jit
-def quat_step(q, w_new, h, q_out, Eq, Eqn, Jth):  # type: ignore[no-untyped-def]
-    """End-of-step orientation and its derivative.
+@jit_inline
+def quat_to_rot(q, iq, R, iR):  # type: ignore[no-untyped-def]
+    """R[iR:iR+9] (3x3 row-major) = rotation matrix of the unit quaternion q[iq:iq+4]."""
+    w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
+    R[iR] = w * w + x * x - y * y - z * z
+    R[iR + 1] = 2.0 * (x * y - w * z)
+    R[iR + 2] = 2.0 * (x * z + w * y)
+    R[iR + 3] = 2.0 * (x * y + w * z)
+    R[iR + 4] = w * w - x * x + y * y - z * z
+    R[iR + 5] = 2.0 * (y * z - w * x)
+    R[iR + 6] = 2.0 * (x * z - w * y)
+    R[iR + 7] = 2.0 * (y * z + w * x)
+    R[iR + 8] = w * w - x * x - y * y + z * z
 
-    ``q_out = normalise(q + h/2 E(q) w_new)`` (MODEL.md, discrete model). ``Jth`` (3x3)
-    receives d(theta)/d(w_new): a perturbation ``dw`` of ``w_new`` rotates the end pose by
-    the small world-frame angle ``Jth @ dw``, i.e. ``dR = [Jth dw]x R``. Returns |q~|.
-    ``Eq``, ``Eqn`` are 4x3 workspaces.
+
+@jit_inline
+def quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
+    """o[io:io+12] (4x3 row-major) = E(Q) with dQ/dt = 1/2 E(Q) omega (world-frame omega)."""
+    w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
+    o[io] = -x
+    o[io + 1] = -y
+    o[io + 2] = -z
+    o[io + 3] = w
+    o[io + 4] = z
+    o[io + 5] = -y
+    o[io + 6] = -z
+    o[io + 7] = w
+    o[io + 8] = x
+    o[io + 9] = y
+    o[io + 10] = -x
+    o[io + 11] = w
+
+
+@jit_inline
+def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
+    """End-of-step orientation and its derivative into the block o[io:io+N_QS].
+
+    ``Q+ = normalise(Q + h/2 E(Q) w+)`` (MODEL.md, discrete model) at ``io + QS_Q``, with
+    ``Q = q[iq:iq+4]`` and ``w+ = w[iw:iw+3]``; ``d(theta)/d(w+)`` (3x3) at ``io + QS_JTH``:
+    a perturbation ``dw`` of ``w+`` rotates the end pose by the small world-frame angle
+    ``Jth @ dw``, i.e. ``dR = [Jth dw]x R``. E(Q) and E(Q+) are left at ``QS_E1``,
+    ``QS_E2``. Returns |Q~| before normalisation.
     """
-    quat_E(q, Eq)
-    s = 0.0
+    e1 = io + QS_E1
+    e2 = io + QS_E2
+    qn = io + QS_Q
+    quat_E(q, iq, o, e1)
+    ss = 0.0
     for k in range(4):
-        acc = q[k]
+        acc = q[iq + k]
         for j in range(3):
-            acc += 0.5 * h * Eq[k, j] * w_new[j]
-        q_out[k] = acc
-        s += acc * acc
-    nrm = math.sqrt(s)
+            acc += 0.5 * h * o[e1 + 3 * k + j] * w[iw + j]
+        o[qn + k] = acc
+        ss += acc * acc
+    nrm = math.sqrt(ss)
     for k in range(4):
-        q_out[k] /= nrm
-    quat_E(q_out, Eqn)
+        o[qn + k] /= nrm
+    quat_E(o, qn, o, e2)
     c = h / nrm
+    jt = io + QS_JTH
     for i in range(3):
         for j in range(3):
             acc = 0.0
             for k in range(4):
-                acc += Eqn[k, i] * Eq[k, j]
-            Jth[i, j] = c * acc
+                acc += o[e2 + 3 * k + i] * o[e1 + 3 * k + j]
+            o[jt + 3 * i + j] = c * acc
     return nrm
 
 
-@jit
-def constraint_eval(ctype, cdata, y, grad, hess):  # type: ignore[no-untyped-def]
-    """Value, gradient and Hessian (body frame) of one convex constraint at ``y``.
+@jit_inline
+def constraint_eval(ct, cdata, c, y, iy, o, io):  # type: ignore[no-untyped-def]
+    """Value, gradient and Hessian (body frame) of constraint ``c`` at y[iy:iy+3].
 
     Parameters
     ----------
-    ctype : int
-        ``C_PLANE``: ``f = n.y - d`` with ``cdata = (n, d)``, |n| = 1.
-        ``C_CYL_X``: ``f = |(y1, y2) - (cy, cz)| - R`` with ``cdata = (cy, cz, R, 0)``: a
-        circular cylinder along the body x axis (the curved robot's outer arc).
-    cdata : float64[4]
-    y : float64[3]
-        Point in body coordinates (scaled length).
-    grad, hess : float64[3], float64[3, 3]
-        Receive the gradient and Hessian.
+    ct : int
+        Its kind. ``C_PLANE``: ``f = n.y - d`` with ``cdata[c] = (n, d)``, |n| = 1.
+        ``C_CYL_X``: ``f = |(y1, y2) - (cy, cz)| - R`` with ``cdata[c] = (cy, cz, R, 0)``:
+        a circular cylinder along the body x axis (the curved robot's outer arc).
+    cdata : float64[M, 4]
+    c : int
+        Row of ``cdata``.
+    y, iy : float64 array, int
+        The point (body coordinates, scaled length) at ``y[iy:iy+3]``.
+    o, io : float64 array, int
+        Receives the gradient at ``io + CG_G`` and the Hessian (3x3 row-major) at
+        ``io + CG_H``.
 
     Returns
     -------
     float
         ``f(y)``; the body is ``f <= 0``.
     """
-    for i in range(3):
-        for j in range(3):
-            hess[i, j] = 0.0
-    if ctype == C_PLANE:
-        grad[0] = cdata[0]
-        grad[1] = cdata[1]
-        grad[2] = cdata[2]
-        return cdata[0] * y[0] + cdata[1] * y[1] + cdata[2] * y[2] - cdata[3]
-    elif ctype == C_CYL_X:
-        d1 = y[1] - cdata[0]
-        d2 = y[2] - cdata[1]
+    g = io + CG_G
+    hs = io + CG_H
+    for i in range(9):
+        o[hs + i] = 0.0
+    if ct == C_PLANE:
+        o[g] = cdata[c, 0]
+        o[g + 1] = cdata[c, 1]
+        o[g + 2] = cdata[c, 2]
+        return cdata[c, 0] * y[iy] + cdata[c, 1] * y[iy + 1] + cdata[c, 2] * y[iy + 2] - cdata[c, 3]
+    elif ct == C_CYL_X:
+        d1 = y[iy + 1] - cdata[c, 0]
+        d2 = y[iy + 2] - cdata[c, 1]
         rho = math.sqrt(d1 * d1 + d2 * d2)
         if rho < 1e-300:
             rho = 1e-300
-        grad[0] = 0.0
-        grad[1] = d1 / rho
-        grad[2] = d2 / rho
-        hess[1, 1] = (1.0 - grad[1] * grad[1]) / rho
-        hess[1, 2] = -grad[1] * grad[2] / rho
-        hess[2, 1] = hess[1, 2]
-        hess[2, 2] = (1.0 - grad[2] * grad[2]) / rho
-        return rho - cdata[2]
-    grad[0] = np.nan
-    grad[1] = np.nan
-    grad[2] = np.nan
-    return np.nan
+        g1 = d1 / rho
+        g2 = d2 / rho
+        o[g] = 0.0
+        o[g + 1] = g1
+        o[g + 2] = g2
+        o[hs + 4] = (1.0 - g1 * g1) / rho
+        o[hs + 5] = -g1 * g2 / rho
+        o[hs + 7] = o[hs + 5]
+        o[hs + 8] = (1.0 - g2 * g2) / rho
+        return rho - cdata[c, 2]
+    o[g] = math.nan
+    o[g + 1] = math.nan
+    o[g + 2] = math.nan
+    return math.nan

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 
 from ._jit import jit
+from .geometry import CG_G, CG_H, N_CG, N_QS, QS_JTH, QS_Q, constraint_eval, cross, quat_step, quat_to_rot, skew
 from .layout import (
     B_A1,
     B_A2,
@@ -45,8 +46,6 @@ from .layout import (
     B_LR,
     B_LT,
     B_SIG,
-    C_CYL_X,
-    C_PLANE,
     P_EB,
     P_EO,
     P_ER,
@@ -104,61 +103,35 @@ def n_unknowns(pstart) -> int:  # type: ignore[no-untyped-def]
 # ---- the residual's scratch: one flat float64[N_RS] array ----------------------------
 # Views of a scratch array (``m33[0]``, ``z[0:3]``, ...) each cost Numba an atomic
 # reference-count increment and decrement, about a tenth of a time step's cost, so the
-# residual addresses one flat scratch array (and z, sc, prm) by offsets instead.
-# The small kernels below (_cr, _sk, _quat_E, _quat_step, _quat_to_rot, _constraint) are
-# offset forms of geometry.py's, with the same arithmetic (tests/test_kernels.py checks
-# them bit for bit). Moving them into geometry.py, as the one implementation with
-# wrappers for the stepper, made a step about 4% slower (calls across kernel modules),
-# so they stay here.
-# 3x3 matrices row-major (9 entries), vectors 3, the quaternion 4, the E matrices 12.
+# residual addresses one flat scratch array (and z, sc, prm) by offsets, and calls the
+# geometry kernels (:mod:`.geometry`, the one implementation, inlined) with offsets.
+# 3x3 matrices row-major (9 entries), vectors 3.
 RS_R = 0  # R+ (rotation at the end of the step)
-RS_JTH = 9  # d(theta)/d(w+)
-RS_IP = 18  # I+ (world inertia)
-RS_M1 = 27  # 3x3 temporaries
-RS_M2 = 36
-RS_M3 = 45
-RS_HL = 54  # sum_i l_i R Hb_i R^T
-RS_HB = 63  # Hessian of one constraint (body frame)
-RS_XP = 72  # x+
-RS_R1 = 75  # r = a1 - x+
-RS_Y = 78  # r in body coordinates
-RS_GB = 81  # gradient of one constraint (body frame)
-RS_NI = 84  # its world normal
-RS_FC = 87  # contact force
-RS_V1 = 90  # vector temporaries
-RS_V2 = 93
-RS_DL = 96  # w+ - w
-RS_IPD = 99  # I+ (w+ - w)
-RS_IPW = 102  # I+ w
-RS_VC = 105  # velocity of the ECP
-RS_NC = 108  # normal-cone row
-RS_MW = 111  # R+ e_b
-RS_QN = 114  # Q+ (4)
-RS_E1 = 118  # E(Q) (4x3)
-RS_E2 = 130  # E(Q+) (4x3)
-N_RS = 142
-
-
-@jit
-def _cr(a, ia, b, ib, o, io):  # type: ignore[no-untyped-def]
-    """o[io:io+3] = a[ia:ia+3] x b[ib:ib+3] (1-D arrays and offsets)."""
-    o[io] = a[ia + 1] * b[ib + 2] - a[ia + 2] * b[ib + 1]
-    o[io + 1] = a[ia + 2] * b[ib] - a[ia] * b[ib + 2]
-    o[io + 2] = a[ia] * b[ib + 1] - a[ia + 1] * b[ib]
-
-
-@jit
-def _sk(a, ia, o, io):  # type: ignore[no-untyped-def]
-    """o[io:io+9] (3x3 row-major) = [a[ia:ia+3]]x."""
-    o[io] = 0.0
-    o[io + 1] = -a[ia + 2]
-    o[io + 2] = a[ia + 1]
-    o[io + 3] = a[ia + 2]
-    o[io + 4] = 0.0
-    o[io + 5] = -a[ia]
-    o[io + 6] = -a[ia + 1]
-    o[io + 7] = a[ia]
-    o[io + 8] = 0.0
+RS_IP = 9  # I+ (world inertia)
+RS_M1 = 18  # 3x3 temporaries
+RS_M2 = 27
+RS_M3 = 36
+RS_HL = 45  # sum_i l_i R Hb_i R^T
+RS_XP = 54  # x+
+RS_R1 = 57  # r = a1 - x+
+RS_Y = 60  # r in body coordinates
+RS_NI = 63  # the world normal of one constraint
+RS_FC = 66  # contact force
+RS_V1 = 69  # vector temporaries
+RS_V2 = 72
+RS_DL = 75  # w+ - w
+RS_IPD = 78  # I+ (w+ - w)
+RS_IPW = 81  # I+ w
+RS_VC = 84  # velocity of the ECP
+RS_NC = 87  # normal-cone row
+RS_MW = 90  # R+ e_b
+RS_QS = 93  # quat_step's block (N_QS): Q+, E(Q), E(Q+), d(theta)/d(w+)
+RS_QN = RS_QS + QS_Q  # Q+ (4)
+RS_JTH = RS_QS + QS_JTH  # d(theta)/d(w+)
+RS_CG = RS_QS + N_QS  # constraint_eval's block (N_CG): gradient and Hessian (body frame)
+RS_GB = RS_CG + CG_G
+RS_HB = RS_CG + CG_H
+N_RS = RS_CG + N_CG
 
 
 @jit
@@ -173,102 +146,11 @@ def _mm(s, ia, ib, io):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
-    """:func:`tumblemc.kernels.geometry.quat_E` into o[io:io+12] (4x3 row-major)."""
-    w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
-    o[io] = -x
-    o[io + 1] = -y
-    o[io + 2] = -z
-    o[io + 3] = w
-    o[io + 4] = z
-    o[io + 5] = -y
-    o[io + 6] = -z
-    o[io + 7] = w
-    o[io + 8] = x
-    o[io + 9] = y
-    o[io + 10] = -x
-    o[io + 11] = w
-
-
-@jit
-def _quat_step(sc, z, h, s):  # type: ignore[no-untyped-def]
-    """:func:`tumblemc.kernels.geometry.quat_step` of ``sc``'s Q and ``w+ = z[3:6]`` into
-    the scratch (Q+ at RS_QN, d(theta)/d(w+) at RS_JTH); the same arithmetic."""
-    _quat_E(sc, S_Q, s, RS_E1)
-    ss = 0.0
-    for k in range(4):
-        acc = sc[S_Q + k]
-        for j in range(3):
-            acc += 0.5 * h * s[RS_E1 + 3 * k + j] * z[3 + j]
-        s[RS_QN + k] = acc
-        ss += acc * acc
-    nrm = math.sqrt(ss)
-    for k in range(4):
-        s[RS_QN + k] /= nrm
-    _quat_E(s, RS_QN, s, RS_E2)
-    c = h / nrm
-    for i in range(3):
-        for j in range(3):
-            acc = 0.0
-            for k in range(4):
-                acc += s[RS_E2 + 3 * k + i] * s[RS_E1 + 3 * k + j]
-            s[RS_JTH + 3 * i + j] = c * acc
-
-
-@jit
-def _quat_to_rot(s):  # type: ignore[no-untyped-def]
-    """:func:`tumblemc.kernels.geometry.quat_to_rot` of Q+ (RS_QN) into RS_R."""
-    w, x, y, z = s[RS_QN], s[RS_QN + 1], s[RS_QN + 2], s[RS_QN + 3]
-    s[RS_R] = w * w + x * x - y * y - z * z
-    s[RS_R + 1] = 2.0 * (x * y - w * z)
-    s[RS_R + 2] = 2.0 * (x * z + w * y)
-    s[RS_R + 3] = 2.0 * (x * y + w * z)
-    s[RS_R + 4] = w * w - x * x + y * y - z * z
-    s[RS_R + 5] = 2.0 * (y * z - w * x)
-    s[RS_R + 6] = 2.0 * (x * z - w * y)
-    s[RS_R + 7] = 2.0 * (y * z + w * x)
-    s[RS_R + 8] = w * w - x * x - y * y + z * z
-
-
-@jit
-def _constraint(ct, cdata, c, s):  # type: ignore[no-untyped-def]
-    """:func:`tumblemc.kernels.geometry.constraint_eval` of constraint ``c`` at y (RS_Y):
-    gradient into RS_GB, Hessian into RS_HB; the same arithmetic."""
-    for i in range(9):
-        s[RS_HB + i] = 0.0
-    if ct == C_PLANE:
-        s[RS_GB] = cdata[c, 0]
-        s[RS_GB + 1] = cdata[c, 1]
-        s[RS_GB + 2] = cdata[c, 2]
-        return cdata[c, 0] * s[RS_Y] + cdata[c, 1] * s[RS_Y + 1] + cdata[c, 2] * s[RS_Y + 2] - cdata[c, 3]
-    elif ct == C_CYL_X:
-        d1 = s[RS_Y + 1] - cdata[c, 0]
-        d2 = s[RS_Y + 2] - cdata[c, 1]
-        rho = math.sqrt(d1 * d1 + d2 * d2)
-        if rho < 1e-300:
-            rho = 1e-300
-        g1 = d1 / rho
-        g2 = d2 / rho
-        s[RS_GB] = 0.0
-        s[RS_GB + 1] = g1
-        s[RS_GB + 2] = g2
-        s[RS_HB + 4] = (1.0 - g1 * g1) / rho
-        s[RS_HB + 5] = -g1 * g2 / rho
-        s[RS_HB + 7] = s[RS_HB + 5]
-        s[RS_HB + 8] = (1.0 - g2 * g2) / rho
-        return rho - cdata[c, 2]
-    s[RS_GB] = math.nan
-    s[RS_GB + 1] = math.nan
-    s[RS_GB + 2] = math.nan
-    return math.nan
-
-
-@jit
 def _friction_jac(J, row, ilam, isg, iln, ia1, cf, dln, dsig, dlam, prm, iax, z, h, s):  # type: ignore[no-untyped-def]
     """Jacobian of ``cf/ln * ln * (axis . (v+ + w+ x r)) + lam/e * sigma`` (one tangent
     row; ``axis = prm[iax:iax+3]``, ``w+ = z[3:6]``, ``r`` at RS_R1)."""
-    _cr(prm, iax, z, 3, s, RS_V1)  # d v_axis / d a1
-    _cr(s, RS_R1, prm, iax, s, RS_V2)  # d v_axis / d w+
+    cross(prm, iax, z, 3, s, RS_V1)  # d v_axis / d a1
+    cross(s, RS_R1, prm, iax, s, RS_V2)  # d v_axis / d w+
     for j in range(3):
         J[row, j] = cf * (prm[iax + j] - h * s[RS_V1 + j])
         J[row, 3 + j] = cf * s[RS_V2 + j]
@@ -317,8 +199,8 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
     er = prm[P_ER]
     # offsets: v+ = z[0:3], w+ = z[3:6], w = sc[S_W:], n = prm[P_N:], t = prm[P_T:], o = prm[P_O:]
 
-    _quat_step(sc, z, h, s)
-    _quat_to_rot(s)
+    quat_step(sc, S_Q, z, 3, h, s, RS_QS)
+    quat_to_rot(s, RS_QN, s, RS_R)
     for i in range(3):
         s[RS_XP + i] = sc[S_X + i] + h * z[i]
         s[RS_DL + i] = z[3 + i] - sc[S_W + i]
@@ -348,7 +230,7 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
                 J[i, j] = 0.0
 
     # ---- Newton-Euler, applied part --------------------------------------------------
-    _cr(sc, S_W, s, RS_IPW, s, RS_V1)
+    cross(sc, S_W, s, RS_IPW, s, RS_V1)
     for i in range(3):
         F[i] = m * (z[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
         F[3 + i] = s[RS_IPD + i] / h + s[RS_V1 + i]
@@ -359,7 +241,7 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
             for j in range(3):
                 acc += s[RS_R + 3 * i + j] * prm[P_EB + j]
             s[RS_MW + i] = acc
-        _cr(s, RS_MW, sc, S_BEND, s, RS_V2)
+        cross(s, RS_MW, sc, S_BEND, s, RS_V2)
         for i in range(3):
             F[3 + i] -= s[RS_V2 + i]
     else:
@@ -370,13 +252,13 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
         for i in range(3):
             J[i, i] = m / h
         # d/dw of I+ dl / h + w0 x (I+ w0): (-[I+ dl]x + I+ [dl]x) Jth / h + [w0]x(-[I+ w0]x + I+ [w0]x) Jth
-        _sk(s, RS_IPD, s, RS_M1)
-        _sk(s, RS_DL, s, RS_M2)
+        skew(s, RS_IPD, s, RS_M1)
+        skew(s, RS_DL, s, RS_M2)
         _mm(s, RS_IP, RS_M2, RS_M3)
         for i in range(9):
             s[RS_M3 + i] = (s[RS_M3 + i] - s[RS_M1 + i]) / h
-        _sk(s, RS_IPW, s, RS_M1)
-        _sk(sc, S_W, s, RS_M2)
+        skew(s, RS_IPW, s, RS_M1)
+        skew(sc, S_W, s, RS_M2)
         _mm(s, RS_IP, RS_M2, RS_HL)
         for i in range(9):
             s[RS_HL + i] -= s[RS_M1 + i]
@@ -385,8 +267,8 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
             s[RS_M3 + i] += s[RS_M1 + i]
         if torque_end:
             # T = mw x B, d mw = -[mw]x dtheta -> dT = [B]x [mw]x dtheta
-            _sk(sc, S_BEND, s, RS_M1)
-            _sk(s, RS_MW, s, RS_M2)
+            skew(sc, S_BEND, s, RS_M1)
+            skew(s, RS_MW, s, RS_M2)
             _mm(s, RS_M1, RS_M2, RS_HL)
             for i in range(9):
                 s[RS_M3 + i] -= s[RS_HL + i]
@@ -424,7 +306,7 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
             for j in range(3):
                 acc += s[RS_R + 3 * j + i] * s[RS_R1 + j]
             s[RS_Y + i] = acc
-        _cr(s, RS_R1, s, RS_FC, s, RS_V1)
+        cross(s, RS_R1, s, RS_FC, s, RS_V1)
         for i in range(3):
             F[i] -= s[RS_FC + i]
             F[3 + i] -= s[RS_V1 + i] + lr * prm[P_N + i]
@@ -436,18 +318,18 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
                 J[i, ilt] -= prm[P_T + i]
                 J[i, ilo] -= prm[P_O + i]
                 J[3 + i, ilr] -= prm[P_N + i]
-            _sk(s, RS_FC, s, RS_M1)
+            skew(s, RS_FC, s, RS_M1)
             for i in range(3):
                 for j in range(3):
                     J[3 + i, ia1 + j] += s[RS_M1 + 3 * i + j]
                     J[3 + i, j] -= h * s[RS_M1 + 3 * i + j]
                     s[RS_HL + 3 * i + j] = 0.0
-            _cr(s, RS_R1, prm, P_N, s, RS_V1)
-            _cr(s, RS_R1, prm, P_T, s, RS_V2)
+            cross(s, RS_R1, prm, P_N, s, RS_V1)
+            cross(s, RS_R1, prm, P_T, s, RS_V2)
             for i in range(3):
                 J[3 + i, iln] -= s[RS_V1 + i]
                 J[3 + i, ilt] -= s[RS_V2 + i]
-            _cr(s, RS_R1, prm, P_O, s, RS_V1)
+            cross(s, RS_R1, prm, P_O, s, RS_V1)
             for i in range(3):
                 J[3 + i, ilo] -= s[RS_V1 + i]
                 J[ia1 + i, ia1 + i] = 1.0
@@ -458,7 +340,7 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
         for ic in range(mk):
             c = c0 + ic
             li = z[il0 + ic]
-            fval = _constraint(ctype[c], cdata, c, s)
+            fval = constraint_eval(ctype[c], cdata, c, s, RS_Y, s, RS_CG)
             for i in range(3):
                 acc = 0.0
                 for j in range(3):
@@ -471,7 +353,7 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
             fbb[row] = -fval
             if want_J:
                 # raw d(-f_i) = -N_i . (da1 - h dv + [r]x Jth dw)
-                _cr(s, RS_R1, s, RS_NI, s, RS_V1)
+                cross(s, RS_R1, s, RS_NI, s, RS_V1)
                 for j in range(3):
                     J[off + 3 + j, row] = s[RS_NI + j]  # d(normal cone)/d l_i
                     J[row, ia1 + j] = -s[RS_NI + j]
@@ -495,11 +377,11 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
             F[off + 3 + i] = s[RS_NC + i]
         if want_J:
             # d(sum l_i N_i) = HL (da1 - h dv + [r]x Jth dw) - [sum l_i N_i]x Jth dw
-            _sk(s, RS_R1, s, RS_M1)
+            skew(s, RS_R1, s, RS_M1)
             _mm(s, RS_HL, RS_M1, RS_M2)
             for i in range(3):
                 s[RS_V1 + i] = s[RS_NC + i] - prm[P_N + i]
-            _sk(s, RS_V1, s, RS_M1)
+            skew(s, RS_V1, s, RS_M1)
             for i in range(9):
                 s[RS_M2 + i] -= s[RS_M1 + i]
             _mm(s, RS_M2, RS_JTH, RS_M3)
@@ -510,7 +392,7 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
                     J[off + 3 + i, 3 + j] += s[RS_M3 + 3 * i + j]
 
         # maximum dissipation
-        _cr(z, 3, s, RS_R1, s, RS_V1)
+        cross(z, 3, s, RS_R1, s, RS_V1)
         for i in range(3):
             s[RS_VC + i] = z[i] + s[RS_V1 + i]
         vt = prm[P_T] * s[RS_VC] + prm[P_T + 1] * s[RS_VC + 1] + prm[P_T + 2] * s[RS_VC + 2]

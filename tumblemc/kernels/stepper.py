@@ -12,7 +12,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .geometry import constraint_eval, cross, quat_step, quat_to_rot
+from .geometry import CG_G, N_CG, N_QS, QS_Q, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
     B_A1,
     B_A2,
@@ -159,14 +159,14 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, sc, R, tmp, tmp2):  # t
         for i in range(3):
             sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
     else:  # torque at the start of the step: (R e_b) x B(t)
-        quat_to_rot(state[3:7], R)
+        quat_to_rot(state, 3, R, 0)
         for i in range(3):
             acc = 0.0
             for j in range(3):
-                acc += R[i, j] * prm[P_EB + j]
+                acc += R[3 * i + j] * prm[P_EB + j]
             tmp[i] = acc
         field_dir(prm, t, tmp2)
-        cross(tmp, tmp2, sc[S_TM : S_TM + 3])
+        cross(tmp, 0, tmp2, 0, sc, S_TM)
         for i in range(3):
             sc[S_TM + i] *= prm[P_TORQ]
     return push
@@ -183,7 +183,7 @@ def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
         for i in range(3):
             wi = x[i]
             for j in range(3):
-                wi += R[i, j] * geo.sup_pts[p, j]
+                wi += R[3 * i + j] * geo.sup_pts[p, j]
             hgt += prm[P_N + i] * wi
         if hgt < best:
             best = hgt
@@ -195,14 +195,14 @@ def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
         for i in range(3):
             wi = x[i]
             for j in range(3):
-                wi += R[i, j] * geo.sup_pts[p, j]
+                wi += R[3 * i + j] * geo.sup_pts[p, j]
             hgt += prm[P_N + i] * wi
         if hgt <= best + tol:
             cnt += 1
             for i in range(3):
                 wi = x[i]
                 for j in range(3):
-                    wi += R[i, j] * geo.sup_pts[p, j]
+                    wi += R[3 * i + j] * geo.sup_pts[p, j]
                 out[i] += wi
     for i in range(3):
         out[i] /= cnt
@@ -210,7 +210,7 @@ def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, Hb, tol, keep_forces):  # type: ignore[no-untyped-def]
+def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, cg, tol, keep_forces):  # type: ignore[no-untyped-def]
     """Fresh guess of a contact block: ECP at the middle of the lowest feature, its normal
     cone multipliers, and (unless ``keep_forces``, used when the block was touching) the
     impact and predicted-sliding forces (MODEL.md numerical traps)."""
@@ -225,15 +225,15 @@ def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, H
     for i in range(3):
         tmp[i] = 0.0
         for j in range(3):
-            tmp[i] += R[j, i] * (a1[j] - x[j])
+            tmp[i] += R[3 * j + i] * (a1[j] - x[j])
     s = 0.0
     for ic in range(mk):
-        f = constraint_eval(geo.ctype[c0 + ic], geo.cdata[c0 + ic], tmp, gb, Hb)
+        f = constraint_eval(geo.ctype[c0 + ic], geo.cdata, c0 + ic, tmp, 0, cg, 0)
         dn = 0.0
         for i in range(3):
             ni = 0.0
             for j in range(3):
-                ni += R[i, j] * gb[j]
+                ni += R[3 * i + j] * cg[CG_G + j]
             dn += ni * prm[P_N + i]
         li = max(0.0, -dn) if f > -1e-6 else 0.0
         z[off + B_L + ic] = li
@@ -246,7 +246,7 @@ def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, gb, H
     # an impact needs lam_n ~ m |v_n| / h plus the pressing load; slide at predicted values
     for i in range(3):
         tmp[i] = a1[i] - x[i]
-    cross(w, tmp, tmp2)
+    cross(w, 0, tmp, 0, tmp2, 0)
     vn = 0.0
     vt = 0.0
     vo = 0.0
@@ -289,9 +289,9 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
         m1 = 0.0
         m2 = 0.0
         for j in range(3):
-            m0 += R[0, j] * geo.cdata[c, j]
-            m1 += R[1, j] * geo.cdata[c, j]
-            m2 += R[2, j] * geo.cdata[c, j]
+            m0 += R[j] * geo.cdata[c, j]
+            m1 += R[3 + j] * geo.cdata[c, j]
+            m2 += R[6 + j] * geo.cdata[c, j]
         a = -m0 * prm[P_N] - m1 * prm[P_N + 1] - m2 * prm[P_N + 2]
         if a > best:
             best = a
@@ -326,12 +326,12 @@ def _plain_residual(z, sc, prm, geo, ws):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, xend, tmp):  # type: ignore[no-untyped-def]
+def _flight_clears(state, z6, hc, prm, geo, qs, R, xend, tmp):  # type: ignore[no-untyped-def]
     """Whether the free-flight solution ``z6`` keeps every piece above the plane at the end
     of the step (then it is the exact solution of the step). ``xend``, ``R`` receive the
     end pose."""
-    quat_step(state[3:7], z6[3:6], hc, qn, Eq, Eqn, Jth)
-    quat_to_rot(qn, R)
+    quat_step(state, 3, z6, 3, hc, qs, 0)
+    quat_to_rot(qs, QS_Q, R, 0)
     for i in range(3):
         xend[i] = state[i] + hc * z6[i]
     for kp in range(geo.pstart.shape[0] - 1):
@@ -341,7 +341,7 @@ def _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, xend, tmp):  # 
 
 
 @jit
-def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb):  # type: ignore[no-untyped-def]
+def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, cg):  # type: ignore[no-untyped-def]
     """Write the free-flight solution into ``z``: velocities from ``z6``, contact blocks
     at their closest points with zero forces (a warm start for the next landing)."""
     for i in range(6):
@@ -349,7 +349,7 @@ def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb):  # type: i
     off = 6
     for kp in range(geo.pstart.shape[0] - 1):
         mk = geo.pstart[kp + 1] - geo.pstart[kp]
-        _landing_guess(z, off, mk, kp, xend, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False)
+        _landing_guess(z, off, mk, kp, xend, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, cg, LOW_TOL, False)
         z[off + B_L + mk + 1] = 0.0
         z[off + B_SIG] = 0.0
         z[off + B_LT] = 0.0
@@ -358,7 +358,7 @@ def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb):  # type: i
 
 
 @jit
-def _lift_off(state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, max_turn, qn, Eq, Eqn, Jth, R, xend, tmp, tmp2, gb, Hb):  # type: ignore[no-untyped-def]
+def _lift_off(state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, max_turn, qs, R, xend, tmp, tmp2, cg):  # type: ignore[no-untyped-def]
     """Free flight for a step whose explicit prediction penetrates: solve it from ``zsave``
     and, if it turns the body by at most ``max_turn`` (rad) and clears the plane, write it
     into ``z`` (it is then the exact solution of the step). Returns ``(code, residual)``:
@@ -370,11 +370,11 @@ def _lift_off(state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, m
         return 0, res6
     if _norm3(z6[3:6]) * hc > max_turn:
         return -1, res6
-    if not _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, xend, tmp):
+    if not _flight_clears(state, z6, hc, prm, geo, qs, R, xend, tmp):
         return 0, res6
     for i in range(z.shape[0]):
         z[i] = zsave[i]
-    _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+    _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, cg)
     return 1, res6
 
 
@@ -416,7 +416,7 @@ def _contact_state(z, geo, prm, x, w, v, tmp, tmp2):  # type: ignore[no-untyped-
                     mode = 1
             for i in range(3):
                 tmp[i] = z[off + B_A1 + i] - x[i]
-            cross(w, tmp, tmp2)
+            cross(w, 0, tmp, 0, tmp2, 0)
             vt = 0.0
             vo = 0.0
             for i in range(3):
@@ -472,16 +472,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     K = geo.pstart.shape[0] - 1
     pempty = geo.pstart[:1]
     sc = np.zeros(N_SC)
-    R = np.zeros((3, 3))
+    R = np.zeros(9)  # 3x3 row-major
     tmp = np.zeros(3)
     tmp2 = np.zeros(3)
     tmp3 = np.zeros(3)
-    gb = np.zeros(3)
-    Hb = np.zeros((3, 3))
-    qn = np.zeros(4)
-    Eq = np.zeros((4, 3))
-    Eqn = np.zeros((4, 3))
-    Jth = np.zeros((3, 3))
+    cg = np.zeros(N_CG)  # constraint_eval's gradient and Hessian
+    qs = np.zeros(N_QS)  # quat_step's block: Q+ at QS_Q
     iters = np.zeros(3, np.int64)
     zwarm = np.zeros(n)
     zprev = np.zeros(n)
@@ -539,8 +535,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             flight = False
             st6 = ST_NAN
             res6 = 0.0
-            quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
-            quat_to_rot(qn, R)
+            quat_step(state, 3, state, 10, hc, qs, 0)
+            quat_to_rot(qs, QS_Q, R, 0)
             for i in range(3):
                 tmp3[i] = state[i] + hc * (state[7 + i] + hc * sc[S_FEXT + i] / prm[P_MASS])
             clear = True
@@ -554,22 +550,22 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
                 acc_nit += iters[0]
             if st6 == ST_OK:
-                flight = _flight_clears(state, z6, hc, prm, geo, qn, Eq, Eqn, Jth, R, tmp3, tmp)
+                flight = _flight_clears(state, z6, hc, prm, geo, qs, R, tmp3, tmp)
             if flight:
-                _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, gb, Hb)
+                _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, cg)
                 st = ST_OK
                 res = res6
             else:
                 for i in range(n):
                     zsave[i] = z[i]
                 # warm start: blocks that were not touching get a landing guess
-                quat_to_rot(state[3:7], R)
+                quat_to_rot(state, 3, R, 0)
                 off = 6
                 for kp in range(K):
                     mk = geo.pstart[kp + 1] - geo.pstart[kp]
                     if touching[kp] == 0:
                         _landing_guess(
-                            z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, gb, Hb, LOW_TOL, False
+                            z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, cg, LOW_TOL, False
                         )
                     off += B_FIXED + mk
                 # deterministic strategies (STRATEGY_*): the touching feature may change
@@ -589,7 +585,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         # plane within the step), is the exact solution of the step
                         code, res6 = _lift_off(
                             state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, EARLY_FLIGHT_TURN,
-                            qn, Eq, Eqn, Jth, R, tmp3, tmp, tmp2, gb, Hb,
+                            qs, R, tmp3, tmp, tmp2, cg,
                         )  # fmt: skip
                         acc_nit += iters[0]
                         flight_failed = code == 0
@@ -624,8 +620,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                             guess -= 4
                             for i in range(6):
                                 z[i] = 0.0
-                        quat_step(state[3:7], state[10:13], hc, qn, Eq, Eqn, Jth)
-                        quat_to_rot(qn, R)
+                        quat_step(state, 3, state, 10, hc, qs, 0)
+                        quat_to_rot(qs, QS_Q, R, 0)
                         if guess == 4:
                             # the nearly flat face laid flat: pre-impact v, snapped w; the
                             # ECP at the lowest vertex or edge of the pose predicted without
@@ -656,8 +652,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                                 geo,
                                 tmp,
                                 tmp2,
-                                gb,
-                                Hb,
+                                cg,
                                 tolg,
                                 guess == 1 and touching[kp] == 1,
                             )
@@ -688,7 +683,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     # early check refused it for turning too far)
                     code, res6 = _lift_off(
                         state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, math.inf,
-                        qn, Eq, Eqn, Jth, R, tmp3, tmp, tmp2, gb, Hb,
+                        qs, R, tmp3, tmp, tmp2, cg,
                     )  # fmt: skip
                     acc_nit += iters[0]
                     if code == 1:
@@ -738,13 +733,13 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     status = ST_NAN
             if status == ST_NAN:
                 break
-            quat_step(state[3:7], z[3:6], hc, qn, Eq, Eqn, Jth)
+            quat_step(state, 3, z, 3, hc, qs, 0)
             for i in range(3):
                 state[i] += hc * z[i]
                 state[7 + i] = z[i]
                 state[10 + i] = z[3 + i]
             for i in range(4):
-                state[3 + i] = qn[i]
+                state[3 + i] = qs[QS_Q + i]
             t += hc
             if remaining - hc <= 1e-12 * h:
                 t = t0 + (step + 1) * h  # whole steps: no accumulated rounding in time
@@ -757,7 +752,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 mk = geo.pstart[kp + 1] - geo.pstart[kp]
                 touching[kp] = 1 if z[off + B_L + mk + 1] > CONTACT_LN_TOL else 0
                 off += B_FIXED + mk
-            quat_to_rot(state[3:7], R)
+            quat_to_rot(state, 3, R, 0)
             for kp in range(K):
                 pen = -lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL)
                 if pen > acc_pen:
