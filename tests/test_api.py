@@ -218,7 +218,9 @@ def test_torque_at_end_of_step_runs_and_tracks_no_slip() -> None:
 
 
 def test_contact_state_classification() -> None:
-    from tumblemc.kernels.stepper import _contact_state
+    from tumblemc.kernels.geometry import N_CG, N_QS
+    from tumblemc.kernels.layout import N_SC
+    from tumblemc.kernels.stepper import Scratch, _contact_state
     from tumblemc.model.run import prepare, run_inputs
     from tumblemc.model.shapes.library import cuboid
 
@@ -228,13 +230,17 @@ def test_contact_state_classification() -> None:
     areas = np.array([c.area for c in shp.pieces[0].constraints]) / 1e-8  # scaled
     z = np.zeros(24)
     z[23] = 1.0  # lam_n > 0
-    tmp, tmp2, zero = np.zeros(3), np.zeros(3), np.zeros(3)
+    state = np.zeros(13)  # at the origin, at rest
+    scr = Scratch(
+        sc=np.zeros(N_SC), R=np.zeros(9), tmp=np.zeros(3), tmp2=np.zeros(3), tmp3=np.zeros(3),
+        cg=np.zeros(N_CG), qs=np.zeros(N_QS), iters=np.zeros(3, np.int64),
+    )  # fmt: skip
     z[16 + 4] = 1.0  # +z face alone: face contact with its area
-    mode, area, *_ = _contact_state(z, geo, prm, zero, zero, zero, tmp, tmp2)
+    mode, area, *_ = _contact_state(z, state, prm, geo, scr)
     assert mode == 2 and area == pytest.approx(areas[4])
     z[16 + 2] = 0.7  # +y end too: an edge, line contact with fraction x smaller area
-    mode, area, *_ = _contact_state(z, geo, prm, zero, zero, zero, tmp, tmp2)
+    mode, area, *_ = _contact_state(z, state, prm, geo, scr)
     assert mode == 1 and area == pytest.approx(0.1 * min(areas[4], areas[2]))
     z[23] = 0.0  # no normal force: no contact
-    mode, area, *_ = _contact_state(z, geo, prm, zero, zero, zero, tmp, tmp2)
+    mode, area, *_ = _contact_state(z, state, prm, geo, scr)
     assert mode == 0 and area == 0.0

@@ -7,23 +7,25 @@ of one run, and the Python overhead per run is one row of arrays.
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 
 from ._jit import jit
 from .layout import P_U, R_FALLBACK, R_LOOSE, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
-from .stepper import run
+from .stepper import Clock, Model, Start, run
 
 # ---- summary columns (one row per run) ----------------------------------------------
-B_STATUS = 0  # BATCH_* status below
-B_FAILED = 1  # steps that did not converge at the smallest sub-step
-B_PROGRESS = 2  # uphill progress over the measurement window (scaled length)
-B_WINDOW = 3  # length of the measurement window (scaled time)
-B_NIT = 4  # Newton iterations, total
-B_SUB = 5  # extra sub-steps, total
-B_FALLBACK = 6  # damped/gradient fallbacks, total
-B_PEN = 7  # max penetration (scaled length)
-B_LOOSE = 8  # steps kept at a residual between tol and accept_tol, total
-N_BATCH_OUT = 9
+OUT_STATUS = 0  # BATCH_* status below
+OUT_FAILED = 1  # steps that did not converge at the smallest sub-step
+OUT_PROGRESS = 2  # uphill progress over the measurement window (scaled length)
+OUT_WINDOW = 3  # length of the measurement window (scaled time)
+OUT_NIT = 4  # Newton iterations, total
+OUT_SUB = 5  # extra sub-steps, total
+OUT_FALLBACK = 6  # damped/gradient fallbacks, total
+OUT_PEN = 7  # max penetration (scaled length)
+OUT_LOOSE = 8  # steps kept at a residual between tol and accept_tol, total
+N_OUT = 9
 
 # ---- run status (also the engine's ``status`` flag values) -------------------------
 BATCH_OK = 0  # finished, every step converged
@@ -32,14 +34,22 @@ BATCH_NONFINITE = 2  # stopped early on a non-finite state
 BATCH_ERROR = 3  # never ran: invalid parameters (set by the Python layer)
 
 
+Batch = namedtuple("Batch", ["prms", "states0", "hs", "area0", "touch0"])
+Batch.__doc__ = """Runs of one shape on one time grid, one row each: ``prms`` float64[B, N_PRM], ``states0``
+float64[B, 13], ``hs`` float64[B], ``area0`` float64[B], ``touch0`` bool[B] (see
+:func:`run_batch`)."""
+
+
 @jit
-def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_row, opts, ws, ws6, rec, out):  # type: ignore[no-untyped-def]
+def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped-def]
     """Simulate ``B`` independent runs of one shape on one time grid.
 
     Parameters
     ----------
     geo : Geometry
         The shape, shared by every run (scaled units).
+    batch : Batch
+        The runs: ``prms``, ``states0``, ``hs``, ``area0``, ``touch0`` below.
     prms : float64[B, N_PRM]
         Kernel parameters of each run (scaled, as built by ``simulate.prepare``).
     states0 : float64[B, 13]
@@ -50,15 +60,15 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         Adhering area at ``t = 0`` (scaled).
     touch0 : bool[B]
         Whether each robot starts touching the plane.
-    n_steps, record_every, i0_row : int
+    grid : (n_steps, record_every, i0_row), ints
         Steps per run, recording stride and the record row that starts the measurement
         window (``i0_row * record_every`` steps after the start).
     opts : float64[N_OPT]
-    ws, ws6 : Workspace
-        Solver workspaces (full system, 6-unknown free-flight system), reused by all runs.
+    buf : Buffers
+        Solver workspaces and unknowns (:func:`~.stepper.make_buffers`), reused by all runs.
     rec : float64[n_records(n_steps, record_every), N_REC]
         Record workspace, reused by all runs.
-    out : float64[B, N_BATCH_OUT]
+    out : float64[B, N_OUT]
         Receives one summary row per run (columns ``B_*``).
 
     Notes
@@ -67,12 +77,13 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
     as :func:`tumblemc.simulate`; nothing is shared between runs except workspaces, so a
     run's result does not depend on its batch or its position in it.
     """
+    prms, states0, hs, area0, touch0 = batch
+    n_steps, record_every, i0_row = grid
     B = prms.shape[0]
-    n = ws.F.shape[0]
     rows = rec.shape[0]
-    z = np.zeros(n)
-    z6 = np.zeros(6)
-    zsave = np.zeros(n)
+    z = buf.z
+    z6 = buf.z6
+    zsave = buf.zsave
     state = np.zeros(13)
     for b in range(B):
         rec[:, :] = 0.0
@@ -80,7 +91,9 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
         z6[:] = 0.0
         zsave[:] = 0.0
         state[:] = states0[b]
-        status, failed = run(geo, prms[b], state, 0.0, hs[b], n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave, area0[b], touch0[b])
+        status, failed = run(
+            Model(prms[b], geo), opts, Start(state, 0.0, area0[b], touch0[b]), Clock(hs[b], n_steps, record_every), rec, buf
+        )
         prog = 0.0
         for i in range(3):
             prog += prms[b, P_U + i] * (rec[rows - 1, R_X + i] - rec[i0_row, R_X + i])
@@ -104,16 +117,16 @@ def run_batch(geo, prms, states0, hs, area0, touch0, n_steps, record_every, i0_r
             code = BATCH_FAILED_STEPS
         else:
             code = BATCH_OK
-        out[b, B_STATUS] = code
-        out[b, B_FAILED] = failed
-        out[b, B_PROGRESS] = prog
-        out[b, B_WINDOW] = rec[rows - 1, R_T] - rec[i0_row, R_T]
-        out[b, B_NIT] = nit
-        out[b, B_SUB] = sub
-        out[b, B_FALLBACK] = fb
-        out[b, B_PEN] = pen
-        out[b, B_LOOSE] = loose
+        out[b, OUT_STATUS] = code
+        out[b, OUT_FAILED] = failed
+        out[b, OUT_PROGRESS] = prog
+        out[b, OUT_WINDOW] = rec[rows - 1, R_T] - rec[i0_row, R_T]
+        out[b, OUT_NIT] = nit
+        out[b, OUT_SUB] = sub
+        out[b, OUT_FALLBACK] = fb
+        out[b, OUT_PEN] = pen
+        out[b, OUT_LOOSE] = loose
     return 0
 
 
-__all__ = ["BATCH_ERROR", "BATCH_FAILED_STEPS", "BATCH_NONFINITE", "BATCH_OK", "N_BATCH_OUT", "run_batch"]
+__all__ = ["BATCH_ERROR", "BATCH_FAILED_STEPS", "BATCH_NONFINITE", "BATCH_OK", "N_OUT", "run_batch"]

@@ -45,15 +45,26 @@ Workspace = namedtuple(
 
 
 def make_workspace(n: int) -> Workspace:
-    """Allocate the solver's arrays for ``n`` unknowns (done once per run)."""
-    f = np.zeros
-    i = np.int64
+    """Allocate the solver's arrays for ``n`` unknowns (done once per run), by field name."""
     return Workspace(
-        f(n), f((n, n)), f((n, n)), f(n), f(n), f(n), f(n), f(n),
-        np.zeros(n, i), np.zeros(n, i),
-        f(N_RS), np.zeros(n, i),
-        np.zeros((n, n), i), np.zeros(n, i), np.zeros((n, n), i), np.zeros(n, i), f(n),
-    )  # fmt: skip
+        F=np.zeros(n),
+        J=np.zeros((n, n)),
+        A=np.zeros((n, n)),
+        d=np.zeros(n),
+        zt=np.zeros(n),
+        Ft=np.zeros(n),
+        g=np.zeros(n),
+        fbb=np.zeros(n),
+        isfb=np.zeros(n, np.int64),
+        piv=np.zeros(n, np.int64),
+        rs=np.zeros(N_RS),
+        Ft_isfb=np.zeros(n, np.int64),
+        unz=np.zeros((n, n), np.int64),
+        ucnt=np.zeros(n, np.int64),
+        lnz=np.zeros((n, n), np.int64),
+        lcnt=np.zeros(n, np.int64),
+        y=np.zeros(n),
+    )
 
 
 ABS_BITS = 0x7FFFFFFFFFFFFFFF  # a float64's bits without the sign

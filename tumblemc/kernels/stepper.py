@@ -71,7 +71,7 @@ from .layout import (
     ST_OK,
     ST_STOPPED,
 )
-from .newton import Workspace, solve
+from .newton import Workspace, make_workspace, solve
 from .residual import residual
 
 Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
@@ -85,6 +85,31 @@ sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
     points whose lowest one, minus the pad, bounds the piece from below in any direction
     (polytope vertices with pad 0; sampled arcs with their sagitta as pad)
 """
+
+Model = namedtuple("Model", ["prm", "geo"])
+Model.__doc__ = """One robot on one substrate: its run constants ``prm`` (float64[N_PRM], ``P_*``) and
+its :class:`Geometry`."""
+
+Start = namedtuple("Start", ["state", "t0", "area0", "touch0"])
+Start.__doc__ = """Where a run starts: ``state`` float64[13] (``x (3), Q (4), v (3), w (3)``, scaled;
+updated in place), the time ``t0``, the adhering area ``area0`` and whether it touches
+(``touch0``): the robot starts lying on a face, so the first step already feels that face's
+adhesion."""
+
+Clock = namedtuple("Clock", ["h", "n_steps", "record_every"])
+Clock.__doc__ = """The time grid of a run: step length ``h`` (scaled), ``n_steps``, and a record row
+every ``record_every`` steps."""
+
+Buffers = namedtuple("Buffers", ["ws", "ws6", "z", "z6", "zsave"])
+Buffers.__doc__ = """A run's solver memory, reusable across runs: the workspaces of the full system and
+of the 6-unknown free-flight system (:class:`~.newton.Workspace`) and the unknowns ``z``
+(warm start in, last solution out), ``z6`` and ``zsave`` (float64[n], [6], [n]). Build with
+:func:`make_buffers`."""
+
+Scratch = namedtuple("Scratch", ["sc", "R", "tmp", "tmp2", "tmp3", "cg", "qs", "iters"])
+Scratch.__doc__ = """The time loop's small temporaries, allocated once per run: step data ``sc`` (N_SC),
+the rotation ``R`` (9, row-major), three 3-vectors, the blocks of ``constraint_eval`` (N_CG)
+and ``quat_step`` (N_QS), and the solver's iteration counters ``iters`` (int64[3])."""
 
 CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as touching
 CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
@@ -139,7 +164,12 @@ def field_dir(prm, t, out):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _prepare(state, t, h, prm, area_prev, touching_prev, sc, R, tmp, tmp2):  # type: ignore[no-untyped-def]
+def _prepare(state, t, h, prm, area_prev, touching_prev, scr):  # type: ignore[no-untyped-def]
+    """Step data ``scr.sc`` for a step of length ``h`` from ``state`` at ``t``; returns the push along -n."""
+    sc = scr.sc
+    R = scr.R
+    tmp = scr.tmp
+    tmp2 = scr.tmp2
     for i in range(13):
         sc[i] = state[i]
     sc[S_H] = h
@@ -210,10 +240,20 @@ def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _landing_guess(z, off, mk, kp, x, R, v, w, h, sc, prm, geo, tmp, tmp2, cg, tol, keep_forces):  # type: ignore[no-untyped-def]
+def _landing_guess(z, off, kp, motion, h, model, scr, tol, keep_forces):  # type: ignore[no-untyped-def]
     """Fresh guess of a contact block: ECP at the middle of the lowest feature, its normal
     cone multipliers, and (unless ``keep_forces``, used when the block was touching) the
-    impact and predicted-sliding forces (MODEL.md numerical traps)."""
+    impact and predicted-sliding forces (MODEL.md numerical traps). ``motion`` is
+    ``(x, v, w)`` (float64[3] each) with the pose's rotation in ``scr.R``."""
+    x, v, w = motion
+    prm = model.prm
+    geo = model.geo
+    sc = scr.sc
+    R = scr.R
+    tmp = scr.tmp
+    tmp2 = scr.tmp2
+    cg = scr.cg
+    mk = geo.pstart[kp + 1] - geo.pstart[kp]
     a1 = z[off + B_A1 : off + B_A1 + 3]
     hgt = lowest_point(x, R, prm, geo, kp, a1, tol)
     gap = max(hgt, 0.0)
@@ -326,10 +366,14 @@ def _plain_residual(z, sc, prm, geo, ws):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _flight_clears(state, z6, hc, prm, geo, qs, R, xend, tmp):  # type: ignore[no-untyped-def]
+def _flight_clears(state, z6, hc, prm, geo, scr):  # type: ignore[no-untyped-def]
     """Whether the free-flight solution ``z6`` keeps every piece above the plane at the end
-    of the step (then it is the exact solution of the step). ``xend``, ``R`` receive the
-    end pose."""
+    of the step (then it is the exact solution of the step). ``scr.tmp3`` and ``scr.R``
+    receive the end pose."""
+    qs = scr.qs
+    R = scr.R
+    xend = scr.tmp3
+    tmp = scr.tmp
     quat_step(state, 3, z6, 3, hc, qs, 0)
     quat_to_rot(qs, QS_Q, R, 0)
     for i in range(3):
@@ -341,15 +385,17 @@ def _flight_clears(state, z6, hc, prm, geo, qs, R, xend, tmp):  # type: ignore[n
 
 
 @jit
-def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, cg):  # type: ignore[no-untyped-def]
+def _set_flight(z, z6, hc, model, scr):  # type: ignore[no-untyped-def]
     """Write the free-flight solution into ``z``: velocities from ``z6``, contact blocks
-    at their closest points with zero forces (a warm start for the next landing)."""
+    at their closest points with zero forces (a warm start for the next landing). The end
+    pose is ``scr.tmp3``, ``scr.R`` (from :func:`_flight_clears`)."""
+    geo = model.geo
     for i in range(6):
         z[i] = z6[i]
     off = 6
     for kp in range(geo.pstart.shape[0] - 1):
         mk = geo.pstart[kp + 1] - geo.pstart[kp]
-        _landing_guess(z, off, mk, kp, xend, R, z6[0:3], z6[3:6], hc, sc, prm, geo, tmp, tmp2, cg, LOW_TOL, False)
+        _landing_guess(z, off, kp, (scr.tmp3, z6[0:3], z6[3:6]), hc, model, scr, LOW_TOL, False)
         z[off + B_L + mk + 1] = 0.0
         z[off + B_SIG] = 0.0
         z[off + B_LT] = 0.0
@@ -358,29 +404,37 @@ def _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, cg):  # type: ignor
 
 
 @jit
-def _lift_off(state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, max_turn, qs, R, xend, tmp, tmp2, cg):  # type: ignore[no-untyped-def]
+def _lift_off(state, buf, hc, model, opts, max_turn, scr):  # type: ignore[no-untyped-def]
     """Free flight for a step whose explicit prediction penetrates: solve it from ``zsave``
     and, if it turns the body by at most ``max_turn`` (rad) and clears the plane, write it
     into ``z`` (it is then the exact solution of the step). Returns ``(code, residual)``:
     1 accepted, 0 the solve failed or the end pose does not clear, -1 it turns too far."""
+    z = buf.z
+    z6 = buf.z6
+    zsave = buf.zsave
+    prm = model.prm
+    geo = model.geo
     for i in range(6):
         z6[i] = zsave[i]
-    st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+    st6, res6 = solve(z6, scr.sc, prm, geo.ctype, geo.cdata, geo.pstart[:1], buf.ws6, opts, scr.iters, False, 0.0)
     if st6 != ST_OK:
         return 0, res6
     if _norm3(z6[3:6]) * hc > max_turn:
         return -1, res6
-    if not _flight_clears(state, z6, hc, prm, geo, qs, R, xend, tmp):
+    if not _flight_clears(state, z6, hc, prm, geo, scr):
         return 0, res6
     for i in range(z.shape[0]):
         z[i] = zsave[i]
-    _set_flight(z, z6, xend, R, hc, sc, prm, geo, tmp, tmp2, cg)
+    _set_flight(z, z6, hc, model, scr)
     return 1, res6
 
 
 @jit
-def _contact_state(z, geo, prm, x, w, v, tmp, tmp2):  # type: ignore[no-untyped-def]
-    """Contact mode, adhering area, total normal force, slip speed and ECP piece offset."""
+def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
+    """Contact mode, adhering area, total normal force, slip speed and ECP piece offset at
+    the pose and velocities of ``state``."""
+    tmp = scr.tmp
+    tmp2 = scr.tmp2
     K = geo.pstart.shape[0] - 1
     off = 6
     mode = 0
@@ -415,41 +469,35 @@ def _contact_state(z, geo, prm, x, w, v, tmp, tmp2):  # type: ignore[no-untyped-
                 if mode == 0:
                     mode = 1
             for i in range(3):
-                tmp[i] = z[off + B_A1 + i] - x[i]
-            cross(w, 0, tmp, 0, tmp2, 0)
+                tmp[i] = z[off + B_A1 + i] - state[i]
+            cross(state, 10, tmp, 0, tmp2, 0)
             vt = 0.0
             vo = 0.0
             for i in range(3):
-                vt += prm[P_T + i] * (v[i] + tmp2[i])
-                vo += prm[P_O + i] * (v[i] + tmp2[i])
+                vt += prm[P_T + i] * (state[7 + i] + tmp2[i])
+                vo += prm[P_O + i] * (state[7 + i] + tmp2[i])
             slip = max(slip, math.hypot(vt, vo))
         off += B_FIXED + mk
     return mode, area, lnsum, slip, ecp_off
 
 
 @jit
-def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z6, zsave, area0, touch0):  # type: ignore[no-untyped-def]
+def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     """Integrate ``n_steps`` steps; returns ``(status, failed_steps)``.
 
     Parameters
     ----------
-    geo : Geometry
-    prm : float64[N_PRM]
-    state0 : float64[13]
-        ``x (3), Q (4), v (3), w (3)`` at ``t0`` (scaled); updated in place.
-    t0, h : float
-        Start time and step length (scaled).
-    n_steps, record_every : int
+    model : Model
+        ``prm`` and ``geo``.
     opts : float64[N_OPT]
+    start : Start
+        Initial state (updated in place: the final state), time and contact.
+    clock : Clock
+        Step length, number of steps, recording stride.
     rec : float64[n_steps // record_every + 1, N_REC]
         Row 0 receives the initial state; row k the state after ``k * record_every`` steps.
-    ws, ws6 : Workspace
-        Workspaces for the full system and for the 6-unknown free-flight system.
-    z, z6, zsave : float64[n], float64[6], float64[n]
-        Unknowns (``z`` holds the warm start in and the last solution out).
-    area0, touch0 : float, bool
-        Contact state at ``t0`` (adhering area, touching): the robot starts lying on a
-        face, so the first step already feels that face's adhesion.
+    buf : Buffers
+        Workspaces and unknowns (``buf.z`` holds the warm start in and the last solution out).
 
     Notes
     -----
@@ -467,18 +515,39 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     also failed). Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
     """
-    state = state0
+    prm = model.prm
+    geo = model.geo
+    state = start.state
+    t0 = start.t0
+    area0 = start.area0
+    touch0 = start.touch0
+    h = clock.h
+    n_steps = clock.n_steps
+    record_every = clock.record_every
+    ws = buf.ws
+    ws6 = buf.ws6
+    z = buf.z
+    z6 = buf.z6
+    zsave = buf.zsave
     n = z.shape[0]
     K = geo.pstart.shape[0] - 1
     pempty = geo.pstart[:1]
-    sc = np.zeros(N_SC)
-    R = np.zeros(9)  # 3x3 row-major
-    tmp = np.zeros(3)
-    tmp2 = np.zeros(3)
-    tmp3 = np.zeros(3)
-    cg = np.zeros(N_CG)  # constraint_eval's gradient and Hessian
-    qs = np.zeros(N_QS)  # quat_step's block: Q+ at QS_Q
-    iters = np.zeros(3, np.int64)
+    scr = Scratch(
+        sc=np.zeros(N_SC),
+        R=np.zeros(9),  # 3x3 row-major
+        tmp=np.zeros(3),
+        tmp2=np.zeros(3),
+        tmp3=np.zeros(3),
+        cg=np.zeros(N_CG),  # constraint_eval's gradient and Hessian
+        qs=np.zeros(N_QS),  # quat_step's block: Q+ at QS_Q
+        iters=np.zeros(3, np.int64),
+    )
+    sc = scr.sc
+    R = scr.R
+    tmp = scr.tmp
+    tmp3 = scr.tmp3
+    qs = scr.qs
+    iters = scr.iters
     zwarm = np.zeros(n)
     zprev = np.zeros(n)
     zprev2 = np.zeros(n)
@@ -519,7 +588,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
     acc_loose = 0
 
     row = 0
-    _record(rec, row, t, state, 0.0, 0.0, 0.0, 0, 0.0, 0, 0.0, 0, 0, 0.0, 0, z, -1, 0)
+    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0))
     status = ST_OK
     for step in range(n_steps):
         remaining = h
@@ -530,7 +599,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         while remaining > 1e-12 * h:
             if hc > remaining:
                 hc = remaining
-            _prepare(state, t, hc, prm, area_prev, any_touch, sc, R, tmp, tmp2)
+            _prepare(state, t, hc, prm, area_prev, any_touch, scr)
             # --- free-flight prediction; an explicit pose that clearly penetrates skips it
             flight = False
             st6 = ST_NAN
@@ -550,9 +619,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
                 acc_nit += iters[0]
             if st6 == ST_OK:
-                flight = _flight_clears(state, z6, hc, prm, geo, qs, R, tmp3, tmp)
+                flight = _flight_clears(state, z6, hc, prm, geo, scr)
             if flight:
-                _set_flight(z, z6, tmp3, R, hc, sc, prm, geo, tmp, tmp2, cg)
+                _set_flight(z, z6, hc, model, scr)
                 st = ST_OK
                 res = res6
             else:
@@ -564,9 +633,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                 for kp in range(K):
                     mk = geo.pstart[kp + 1] - geo.pstart[kp]
                     if touching[kp] == 0:
-                        _landing_guess(
-                            z, off, mk, kp, state[0:3], R, state[7:10], state[10:13], hc, sc, prm, geo, tmp, tmp2, cg, LOW_TOL, False
-                        )
+                        _landing_guess(z, off, kp, (state[0:3], state[7:10], state[10:13]), hc, model, scr, LOW_TOL, False)
                     off += B_FIXED + mk
                 # deterministic strategies (STRATEGY_*): the touching feature may change
                 # within the step (a face slapping down, an edge passing over, a vertex
@@ -583,10 +650,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         # smoothing strategies, the free-flight solution, if it clears the
                         # plane and turns the body little (no corner can dip through the
                         # plane within the step), is the exact solution of the step
-                        code, res6 = _lift_off(
-                            state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, EARLY_FLIGHT_TURN,
-                            qs, R, tmp3, tmp, tmp2, cg,
-                        )  # fmt: skip
+                        code, res6 = _lift_off(state, buf, hc, model, opts, EARLY_FLIGHT_TURN, scr)
                         acc_nit += iters[0]
                         flight_failed = code == 0
                         if code == 1:
@@ -637,25 +701,8 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                         for kp in range(K):
                             mk = geo.pstart[kp + 1] - geo.pstart[kp]
                             tolg = VERTEX_TOL if guess == 2 or guess == 4 else (RESTART_TOL if guess == 1 else FACE_TOL)
-                            _landing_guess(
-                                z,
-                                off,
-                                mk,
-                                kp,
-                                tmp3,
-                                R,
-                                state[7:10],
-                                z[3:6] if guess == 4 else state[10:13],
-                                hc,
-                                sc,
-                                prm,
-                                geo,
-                                tmp,
-                                tmp2,
-                                cg,
-                                tolg,
-                                guess == 1 and touching[kp] == 1,
-                            )
+                            w_guess = z[3:6] if guess == 4 else state[10:13]
+                            _landing_guess(z, off, kp, (tmp3, state[7:10], w_guess), hc, model, scr, tolg, guess == 1 and touching[kp] == 1)
                             off += B_FIXED + mk
                     smooth = STRATEGY_SMOOTH[attempt]
                     if smooth > 0.0:
@@ -681,10 +728,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
                     # lift-off that the explicit pre-check hid: the free-flight solution, if
                     # it clears the plane, is the exact solution of the step (also when the
                     # early check refused it for turning too far)
-                    code, res6 = _lift_off(
-                        state, zsave, z, z6, hc, sc, prm, geo, pempty, ws6, opts, iters, math.inf,
-                        qs, R, tmp3, tmp, tmp2, cg,
-                    )  # fmt: skip
+                    code, res6 = _lift_off(state, buf, hc, model, opts, math.inf, scr)
                     acc_nit += iters[0]
                     if code == 1:
                         st = ST_OK
@@ -744,7 +788,7 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
             if remaining - hc <= 1e-12 * h:
                 t = t0 + (step + 1) * h  # whole steps: no accumulated rounding in time
             remaining -= hc
-            mode, area_prev, lnsum, slip, ecp_off = _contact_state(z, geo, prm, state[0:3], state[10:13], state[7:10], tmp, tmp2)
+            mode, area_prev, lnsum, slip, ecp_off = _contact_state(z, state, prm, geo, scr)
             adh = prm[P_ADHC] * area_prev
             any_touch = mode > 0
             off = 6
@@ -767,8 +811,9 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
         if (step + 1) % record_every == 0 or step == n_steps - 1:
             row += 1
             _record(
-                rec, row, t, state, lnsum, adh, area_prev, mode, slip,
-                acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, z, ecp_off, acc_loose,
+                rec, row, t, state, z, adh,
+                (mode, area_prev, lnsum, slip, ecp_off),
+                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose),
             )  # fmt: skip
             acc_loose = 0
             acc_nit = 0
@@ -781,7 +826,12 @@ def run(geo, prm, state0, t0, h, n_steps, record_every, opts, rec, ws, ws6, z, z
 
 
 @jit
-def _record(rec, row, t, state, lnsum, adh, area, mode, slip, nit, res, nfb, nsub, pen, nfail, z, ecp_off, nloose):  # type: ignore[no-untyped-def]
+def _record(rec, row, t, state, z, adh, cs, acc):  # type: ignore[no-untyped-def]
+    """Write record row ``row``: time, state, ECP, applied adhesion ``adh``, the contact
+    summary ``cs = (mode, area, lnsum, slip, ecp_off)`` (:func:`_contact_state`) and the
+    interval's counters ``acc = (nit, res, nfb, nsub, pen, nfail, nloose)``."""
+    mode, area, lnsum, slip, ecp_off = cs
+    nit, res, nfb, nsub, pen, nfail, nloose = acc
     rec[row, R_T] = t
     for i in range(3):
         rec[row, R_X + i] = state[i]
@@ -814,4 +864,22 @@ def empty_record(n_steps: int, record_every: int) -> np.ndarray:
     return np.zeros((n_records(n_steps, record_every), N_REC))
 
 
-__all__ = ["Geometry", "Workspace", "empty_record", "field_dir", "n_records", "run"]
+def make_buffers(n: int) -> Buffers:
+    """Solver memory for a system of ``n`` unknowns (:class:`Buffers`)."""
+    return Buffers(ws=make_workspace(n), ws6=make_workspace(6), z=np.zeros(n), z6=np.zeros(6), zsave=np.zeros(n))
+
+
+__all__ = [
+    "Buffers",
+    "Clock",
+    "Geometry",
+    "Model",
+    "Scratch",
+    "Start",
+    "Workspace",
+    "empty_record",
+    "field_dir",
+    "make_buffers",
+    "n_records",
+    "run",
+]

@@ -17,9 +17,8 @@ from typing import TypedDict
 import numpy as np
 
 from tumblemc.kernels import batch as KB
-from tumblemc.kernels.newton import make_workspace
 from tumblemc.kernels.residual import n_unknowns
-from tumblemc.kernels.stepper import empty_record
+from tumblemc.kernels.stepper import empty_record, make_buffers
 from tumblemc.model.outcome import climbed
 from tumblemc.model.params import SolverOptions
 from tumblemc.model.run import RunSpec, initial_contact, prepare, run_inputs
@@ -122,7 +121,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
         stride, i0_row = _record_stride(spec.n_steps, i0)
         groups.setdefault((spec.n_steps, stride, i0_row), []).append(i)
     geo = shp.geometry()
-    ws, ws6 = make_workspace(n_unknowns(geo.pstart)), make_workspace(6)
+    buf = make_buffers(n_unknowns(geo.pstart))
     for (n_steps, stride, i0_row), idx in sorted(groups.items()):
         ss = [specs[i] for i in idx]
         prms = np.ascontiguousarray(np.stack([s.prm for s in ss]))
@@ -131,14 +130,15 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
         contact = [initial_contact(s) for s in ss]
         area0 = np.array([a for a, _ in contact])
         touch0 = np.array([t for _, t in contact])
-        out = np.zeros((len(ss), KB.N_BATCH_OUT))
+        out = np.zeros((len(ss), KB.N_OUT))
         rec = empty_record(n_steps, stride)
-        KB.run_batch(geo, prms, states, hs, area0, touch0, n_steps, stride, i0_row, solver.as_array(), ws, ws6, rec, out)
+        batch = KB.Batch(prms=prms, states0=states, hs=hs, area0=area0, touch0=touch0)
+        KB.run_batch(geo, batch, (n_steps, stride, i0_row), solver.as_array(), buf, rec, out)
         for j, (i, s) in enumerate(zip(idx, ss, strict=True)):
             o = out[j]
-            status = int(o[KB.B_STATUS])
-            window = o[KB.B_WINDOW] * s.units.time
-            progress = o[KB.B_PROGRESS] * s.units.length
+            status = int(o[KB.OUT_STATUS])
+            window = o[KB.OUT_WINDOW] * s.units.time
+            progress = o[KB.OUT_PROGRESS] * s.units.length
             speed = progress / window if window > 0 else math.nan
             ideal = s.shape.hull_perimeter * s.freq_hz
             ratio = speed / ideal
@@ -149,11 +149,11 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
             res["mean_speed"][i] = speed
             res["progress_ratio"][i] = ratio
             res["climbed"][i] = int(climbed(ratio, status, grid.success_ratio))
-            res["newton_iterations"][i] = o[KB.B_NIT] / s.n_steps
-            res["substeps"][i] = int(o[KB.B_SUB])
-            res["fallbacks"][i] = int(o[KB.B_FALLBACK])
-            res["failed_steps"][i] = int(o[KB.B_FAILED])
-            res["max_penetration"][i] = o[KB.B_PEN] * s.units.length
-            res["loose_steps"][i] = int(o[KB.B_LOOSE])
+            res["newton_iterations"][i] = o[KB.OUT_NIT] / s.n_steps
+            res["substeps"][i] = int(o[KB.OUT_SUB])
+            res["fallbacks"][i] = int(o[KB.OUT_FALLBACK])
+            res["failed_steps"][i] = int(o[KB.OUT_FAILED])
+            res["max_penetration"][i] = o[KB.OUT_PEN] * s.units.length
+            res["loose_steps"][i] = int(o[KB.OUT_LOOSE])
     res["error"] = errors
     return res

@@ -10,9 +10,8 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.newton import Workspace, make_workspace
 from tumblemc.kernels.residual import n_unknowns
-from tumblemc.kernels.stepper import Geometry, empty_record, n_records, run
+from tumblemc.kernels.stepper import Buffers, Clock, Geometry, Model, Start, empty_record, make_buffers, n_records, run
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
 from tumblemc.model.shapes.library import get_shape
@@ -256,33 +255,21 @@ def initial_contact(spec: RunSpec) -> tuple[float, bool]:
     return (spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0), resting
 
 
-def run_spec(spec: RunSpec, workspaces: tuple[Workspace, Workspace] | None = None) -> tuple[np.ndarray, int, int]:
-    """Run the kernel for ``spec``; returns ``(rec, status, failed_steps)`` (scaled)."""
+def run_spec(spec: RunSpec, buffers: Buffers | None = None) -> tuple[np.ndarray, int, int]:
+    """Run the kernel for ``spec``; returns ``(rec, status, failed_steps)`` (scaled).
+
+    ``buffers`` (:func:`~tumblemc.kernels.stepper.make_buffers`) may be reused across runs
+    of one shape; the unknowns are zeroed first, so a run never depends on the previous one.
+    """
     geo = spec.geo
-    n = n_unknowns(geo.pstart)
-    ws, ws6 = workspaces or (make_workspace(n), make_workspace(6))
+    buf = buffers or make_buffers(n_unknowns(geo.pstart))
+    for arr in (buf.z, buf.z6, buf.zsave):
+        arr[:] = 0.0
     rec = empty_record(spec.n_steps, spec.record_every)
-    z = np.zeros(n)
-    state = spec.state0.copy()
     area0, resting = initial_contact(spec)
-    status, failed = run(
-        geo,
-        spec.prm,
-        state,
-        0.0,
-        spec.h,
-        spec.n_steps,
-        spec.record_every,
-        spec.solver.as_array(),
-        rec,
-        ws,
-        ws6,
-        z,
-        np.zeros(6),
-        np.zeros(n),
-        area0,
-        resting,
-    )
+    start = Start(state=spec.state0.copy(), t0=0.0, area0=area0, touch0=resting)
+    clock = Clock(h=spec.h, n_steps=spec.n_steps, record_every=spec.record_every)
+    status, failed = run(Model(prm=spec.prm, geo=geo), spec.solver.as_array(), start, clock, rec, buf)
     return rec, int(status), int(failed)
 
 
