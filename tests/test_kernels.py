@@ -25,7 +25,7 @@ from tests import naive
 from tests.naive import block_index, fb_exact, fb_plain, fb_smooth_exact, naive_model, naive_residual
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import make_workspace
-from tumblemc.kernels.residual import fb, fb_smooth, n_unknowns, residual
+from tumblemc.kernels.residual import Problem, fb, fb_smooth, n_unknowns, residual
 
 # ---- tolerances (named, in one place) --------------------------------------------------
 F_RTOL = 1e-12  # kernel F vs naive F, relative to 1 + max|F|; seen: <= 2e-15
@@ -161,7 +161,7 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
 def kernel(z, sc, prm, ctype, cdata, pstart, want_J=True, mu_s=None):  # type: ignore[no-untyped-def]
     """Run the kernel on fresh workspaces; returns (F, J, theta). ``mu_s=None``: default FB."""
     ws = make_workspace(z.size)
-    a = (z, sc, prm, ctype, cdata, pstart, ws.F, ws.J, want_J, ws.isfb, ws.fbb, ws.rs)
+    a = (z, Problem(sc, prm, ctype, cdata, pstart), ws.F, ws.J, (ws.isfb, ws.fbb, ws.rs), want_J)
     theta = residual(*a) if mu_s is None else residual(*a, mu_s)
     return ws.F.copy(), ws.J.copy(), theta
 

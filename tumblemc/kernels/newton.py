@@ -217,13 +217,14 @@ def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s):  # type: ignore[no-untyped-def]
-    """Armijo backtracking along ``d``; on success ``zt`` holds the new point.
+def _line_search(z, slope, theta, prob, ws, trial, opts, mode):  # type: ignore[no-untyped-def]
+    """Armijo backtracking along ``ws.d``; on success ``ws.zt`` holds the new point.
 
-    The workspace arrays come one by one, not in the ``Workspace`` tuple: every array
-    taken out of a tuple costs Numba an atomic reference-count increment and decrement.
-    ``J`` is only passed through: the trial residuals do not form the Jacobian, so the
-    solver's J survives the line search.
+    ``trial`` is the residual's work tuple for the trial points (``ws.Ft_isfb``,
+    ``ws.fbb``, ``ws.rs``, built once per solve); ``mode = (project, mu_s)``. ``ws.J`` is
+    only passed through: the trial residuals do not form the Jacobian, so the solver's J
+    survives the line search. Arrays are taken out of the tuples once per call (each
+    access costs Numba an atomic reference-count pair).
 
     With ``project``, trial points are projected onto ``z_i >= 0`` for the complementarity variables
     (``isfb[i] != 0``: sigma, l_i, l_s, lam_n), where every solution lies. Without it
@@ -234,6 +235,14 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g,
     Yamashita & Fukushima 2004). Projection slows convergence at sticking contacts
     (sigma = 0), so the stepper tries it only after the plain iteration failed.
     """
+    project, mu_s = mode
+    d = ws.d
+    zt = ws.zt
+    g = ws.g
+    Ft = ws.Ft
+    J = ws.J
+    isfb = ws.isfb
+    n = z.shape[0]
     t = 1.0
     c = opts[O_ARMIJO]
     while t >= opts[O_MINSTEP]:
@@ -251,7 +260,7 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g,
             target = theta + c * dec if dec < 0.0 else theta * (1.0 - c * t)
         else:
             target = theta + c * t * slope
-        th = residual(zt, sc, prm, ctype, cdata, pstart, Ft, J, False, Ft_isfb, fbb, rs, mu_s)
+        th = residual(zt, prob, Ft, J, trial, False, mu_s)
         if th <= target:
             return True, th
         t *= 0.5
@@ -259,15 +268,15 @@ def _line_search(z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g,
 
 
 @jit
-def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-def]
+def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-def]
     """Solve ``Phi(z) = 0`` in place from the warm start ``z``.
 
     Parameters
     ----------
     z : float64[n]
         Warm start in, solution (or best iterate) out.
-    sc, prm, ctype, cdata, pstart
-        See :func:`tumblemc.kernels.residual.residual`.
+    prob : Problem
+        The step's system (:class:`tumblemc.kernels.residual.Problem`).
     ws : Workspace
     opts : float64[N_OPT]
         ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``.
@@ -302,16 +311,14 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
     lnz = ws.lnz
     lcnt = ws.lcnt
     y = ws.y
-    isfb = ws.isfb
-    fbb = ws.fbb
-    rs = ws.rs
+    work = (ws.isfb, ws.fbb, ws.rs)  # the residual's work arrays at z ...
+    trial = (ws.Ft_isfb, ws.fbb, ws.rs)  # ... and at the line search's trial points
     zt = ws.zt
     Ft = ws.Ft
-    Ft_isfb = ws.Ft_isfb
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
-    theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, rs, mu_s)
+    theta = residual(z, prob, F, J, work, True, mu_s)
     fallbacks = 0
     it = 0
     status = ST_MAXIT
@@ -327,7 +334,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             break
         if mu_s > 0.0 and fnorm <= max(tol, 0.1 * mu_s):
             mu_s = 0.1 * mu_s if 0.1 * mu_s > 1e-3 * tol else 0.0
-            theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, rs, mu_s)
+            theta = residual(z, prob, F, J, work, True, mu_s)
             continue
         if fnorm <= tol and mu_s == 0.0:
             status = ST_OK
@@ -362,9 +369,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
                 slope += g[i] * d[i]
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
-                accepted, th_new = _line_search(
-                    z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s
-                )
+                accepted, th_new = _line_search(z, slope, theta, prob, ws, trial, opts, (project, mu_s))
         # 2. Levenberg-Marquardt
         if not accepted:
             fallbacks += 1
@@ -374,16 +379,12 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
                 for i in range(n):
                     slope += g[i] * d[i]
                 if slope < 0.0:
-                    accepted, th_new = _line_search(
-                        z, d, slope, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s
-                    )
+                    accepted, th_new = _line_search(z, slope, theta, prob, ws, trial, opts, (project, mu_s))
         # 3. steepest descent
         if not accepted:
             for i in range(n):
                 d[i] = -g[i] / max(gnorm, 1e-300)
-            accepted, th_new = _line_search(
-                z, d, -gnorm, theta, sc, prm, ctype, cdata, pstart, isfb, zt, g, Ft, J, Ft_isfb, fbb, rs, opts, n, project, mu_s
-            )
+            accepted, th_new = _line_search(z, -gnorm, theta, prob, ws, trial, opts, (project, mu_s))
         if not accepted:
             status = ST_LINESEARCH
             break
@@ -400,7 +401,7 @@ def solve(z, sc, prm, ctype, cdata, pstart, ws, opts, out, project, smooth0):  #
             fnorm = fnew
             status = ST_OK
             break
-        theta = residual(z, sc, prm, ctype, cdata, pstart, F, J, True, isfb, fbb, rs, mu_s)
+        theta = residual(z, prob, F, J, work, True, mu_s)
     out[0] = it
     out[1] = fallbacks
     return status, fnorm

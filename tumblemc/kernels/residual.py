@@ -34,6 +34,7 @@ complementarity variables.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 from ._jit import jit
 from .geometry import CG_G, CG_H, N_CG, N_QS, QS_JTH, QS_Q, constraint_eval, cross, quat_step, quat_to_rot, skew
@@ -66,6 +67,11 @@ from .layout import (
     S_W,
     S_X,
 )
+
+Problem = namedtuple("Problem", ["sc", "prm", "ctype", "cdata", "pstart"])
+Problem.__doc__ = """The system of one step (see :func:`residual`): step data, run constants and the
+constraints (a ``pstart`` of length 1 is the free-flight system, no contact block). The
+time loop builds its two problems once per run; ``sc`` is refilled in place every step."""
 
 FB_DEGENERATE = 1e-14  # |(a, b)| below which the FB pair is treated as a kink
 
@@ -146,9 +152,14 @@ def _mm(s, ia, ib, io):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _friction_jac(J, row, ilam, isg, iln, ia1, cf, dln, dsig, dlam, prm, iax, z, h, s):  # type: ignore[no-untyped-def]
+def _friction_jac(J, z, prm, s, h, idx, coef):  # type: ignore[no-untyped-def]
     """Jacobian of ``cf/ln * ln * (axis . (v+ + w+ x r)) + lam/e * sigma`` (one tangent
-    row; ``axis = prm[iax:iax+3]``, ``w+ = z[3:6]``, ``r`` at RS_R1)."""
+    row; ``axis = prm[iax:iax+3]``, ``w+ = z[3:6]``, ``r`` at RS_R1).
+
+    ``idx = (row, ilam, isg, iln, ia1, iax)`` (ints) and ``coef = (cf, dln, dsig, dlam)``.
+    """
+    row, ilam, isg, iln, ia1, iax = idx
+    cf, dln, dsig, dlam = coef
     cross(prm, iax, z, 3, s, RS_V1)  # d v_axis / d a1
     cross(s, RS_R1, prm, iax, s, RS_V2)  # d v_axis / d w+
     for j in range(3):
@@ -161,27 +172,27 @@ def _friction_jac(J, row, ilam, isg, iln, ia1, cf, dln, dsig, dlam, prm, iax, z,
 
 
 @jit
-def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=0.0):  # type: ignore[no-untyped-def]
+def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-def]
     """Evaluate ``Phi(z)`` into ``F`` and, if ``want_J``, its Jacobian into ``J``.
 
     Parameters
     ----------
     z : float64[n]
         Unknowns (layout in the module docstring).
-    sc : float64[N_SC]
-        Step data (``S_*``): start-of-step state, ``h``, ``F_ext``, torque data.
-    prm : float64[N_PRM]
-        Run constants (``P_*``).
-    ctype, cdata, pstart : int64[M], float64[M, 4], int64[K + 1]
-        Constraints of all pieces; piece ``k`` owns ``pstart[k]:pstart[k+1]``.
+    prob : Problem
+        The step's system: ``sc`` float64[N_SC] (step data ``S_*``: start-of-step state,
+        ``h``, ``F_ext``, torque data), ``prm`` float64[N_PRM] (run constants ``P_*``), and
+        the constraints ``ctype``, ``cdata``, ``pstart`` (int64[M], float64[M, 4],
+        int64[K + 1]; piece ``k`` owns ``pstart[k]:pstart[k+1]``; ``pstart`` of length 1:
+        free flight, no contact block).
     F : float64[n]
         Receives the residual.
     J : float64[n, n]
         Receives the Jacobian when ``want_J``.
-    isfb, fbb : int64[n], float64[n]
-        Workspaces: FB-row flags and the raw ``b`` of each FB pair.
-    s : float64[N_RS]
-        Scratch (layout ``RS_*`` above; no allocation here).
+    work : (isfb, fbb, s)
+        Workspaces: FB-row flags int64[n], the raw ``b`` of each FB pair float64[n], and
+        the scratch float64[N_RS] (layout ``RS_*`` above; no allocation here).
+    want_J : bool
     mu_s : float
         Smoothing of the FB rows (``fb_smooth``); 0 gives the plain FB of the model.
 
@@ -190,6 +201,8 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
     float
         ``0.5 * ||F||^2``.
     """
+    sc, prm, ctype, cdata, pstart = prob
+    isfb, fbb, s = work
     n = z.shape[0]
     h = sc[S_H]
     m = prm[P_MASS]
@@ -402,8 +415,8 @@ def residual(z, sc, prm, ctype, cdata, pstart, F, J, want_J, isfb, fbb, s, mu_s=
         F[off + 7] = mu * eo * ln * vo + lo / eo * sig
         F[off + 8] = mu * er * ln * vr + lr / er * sig
         if want_J:
-            _friction_jac(J, off + 6, ilt, isg, iln, ia1, mu * et * ln, mu * et * vt, lt / et, sig / et, prm, P_T, z, h, s)
-            _friction_jac(J, off + 7, ilo, isg, iln, ia1, mu * eo * ln, mu * eo * vo, lo / eo, sig / eo, prm, P_O, z, h, s)
+            _friction_jac(J, z, prm, s, h, (off + 6, ilt, isg, iln, ia1, P_T), (mu * et * ln, mu * et * vt, lt / et, sig / et))
+            _friction_jac(J, z, prm, s, h, (off + 7, ilo, isg, iln, ia1, P_O), (mu * eo * ln, mu * eo * vo, lo / eo, sig / eo))
             cf = mu * er * ln
             for j in range(3):
                 J[off + 8, 3 + j] = cf * prm[P_N + j]

@@ -72,7 +72,7 @@ from .layout import (
     ST_STOPPED,
 )
 from .newton import Workspace, make_workspace, solve
-from .residual import residual
+from .residual import Problem, residual
 
 Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
 Geometry.__doc__ = """Robot geometry in scaled body coordinates, as kernel arrays.
@@ -106,10 +106,12 @@ of the 6-unknown free-flight system (:class:`~.newton.Workspace`) and the unknow
 (warm start in, last solution out), ``z6`` and ``zsave`` (float64[n], [6], [n]). Build with
 :func:`make_buffers`."""
 
-Scratch = namedtuple("Scratch", ["sc", "R", "tmp", "tmp2", "tmp3", "cg", "qs", "iters"])
+Scratch = namedtuple("Scratch", ["sc", "R", "tmp", "tmp2", "tmp3", "cg", "qs", "iters", "prob", "prob6"])
 Scratch.__doc__ = """The time loop's small temporaries, allocated once per run: step data ``sc`` (N_SC),
 the rotation ``R`` (9, row-major), three 3-vectors, the blocks of ``constraint_eval`` (N_CG)
-and ``quat_step`` (N_QS), and the solver's iteration counters ``iters`` (int64[3])."""
+and ``quat_step`` (N_QS), the solver's iteration counters ``iters`` (int64[3]), and the two
+systems a step solves (:class:`~.residual.Problem`, sharing ``sc``): with contact (``prob``)
+and in free flight (``prob6``)."""
 
 CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as touching
 CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
@@ -356,9 +358,9 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _plain_residual(z, sc, prm, geo, ws):  # type: ignore[no-untyped-def]
+def _plain_residual(z, prob, ws):  # type: ignore[no-untyped-def]
     """Max-norm of the model's (unsmoothed) residual at ``z``."""
-    residual(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws.Ft, ws.J, False, ws.Ft_isfb, ws.fbb, ws.rs, 0.0)
+    residual(z, prob, ws.Ft, ws.J, (ws.Ft_isfb, ws.fbb, ws.rs), False, 0.0)
     r = 0.0
     for i in range(z.shape[0]):
         r = max(r, abs(ws.Ft[i]))
@@ -416,7 +418,7 @@ def _lift_off(state, buf, hc, model, opts, max_turn, scr):  # type: ignore[no-un
     geo = model.geo
     for i in range(6):
         z6[i] = zsave[i]
-    st6, res6 = solve(z6, scr.sc, prm, geo.ctype, geo.cdata, geo.pstart[:1], buf.ws6, opts, scr.iters, False, 0.0)
+    st6, res6 = solve(z6, scr.prob6, buf.ws6, opts, scr.iters, False, 0.0)
     if st6 != ST_OK:
         return 0, res6
     if _norm3(z6[3:6]) * hc > max_turn:
@@ -532,8 +534,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     n = z.shape[0]
     K = geo.pstart.shape[0] - 1
     pempty = geo.pstart[:1]
+    sc = np.zeros(N_SC)
     scr = Scratch(
-        sc=np.zeros(N_SC),
+        sc=sc,
         R=np.zeros(9),  # 3x3 row-major
         tmp=np.zeros(3),
         tmp2=np.zeros(3),
@@ -541,8 +544,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
         cg=np.zeros(N_CG),  # constraint_eval's gradient and Hessian
         qs=np.zeros(N_QS),  # quat_step's block: Q+ at QS_Q
         iters=np.zeros(3, np.int64),
+        prob=Problem(sc=sc, prm=prm, ctype=geo.ctype, cdata=geo.cdata, pstart=geo.pstart),
+        prob6=Problem(sc=sc, prm=prm, ctype=geo.ctype, cdata=geo.cdata, pstart=pempty),
     )
-    sc = scr.sc
+    prob = scr.prob
+    prob6 = scr.prob6
     R = scr.R
     tmp = scr.tmp
     tmp3 = scr.tmp3
@@ -616,7 +622,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             if clear:
                 for i in range(6):
                     z6[i] = z[i]
-                st6, res6 = solve(z6, sc, prm, geo.ctype, geo.cdata, pempty, ws6, opts, iters, False, 0.0)
+                st6, res6 = solve(z6, prob6, ws6, opts, iters, False, 0.0)
                 acc_nit += iters[0]
             if st6 == ST_OK:
                 flight = _flight_clears(state, z6, hc, prm, geo, scr)
@@ -711,7 +717,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         opts_use = opts  # the snap can need more than FAST_MAXIT iterations
                     else:
                         opts_use = opts_fast
-                    st, res = solve(z, sc, prm, geo.ctype, geo.cdata, geo.pstart, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)
+                    st, res = solve(z, prob, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:
@@ -719,7 +725,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     # remember the attempt with the smallest residual of the model itself
                     # (a smoothed attempt reports its smoothed residual)
                     if smooth > 0.0:
-                        res = _plain_residual(z, sc, prm, geo, ws)
+                        res = _plain_residual(z, prob, ws)
                     if res < res_best:
                         res_best = res
                         for i in range(n):
