@@ -13,9 +13,22 @@ a call is inlined into its caller.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 from ._jit import jit_inline
 from .layout import C_CYL_X, C_PLANE
+
+Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
+Geometry.__doc__ = """Robot geometry in scaled body coordinates, as kernel arrays.
+
+ctype, cdata : int64[M], float64[M, 4]   convex constraints (see ``constraint_eval``)
+carea : float64[M]   adhering area when that constraint alone touches the plane
+cline : int64[M]     1 if that constraint alone touching the plane is line contact
+pstart : int64[K+1]  piece k owns constraints pstart[k]:pstart[k+1]
+sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
+    points whose lowest one, minus the pad, bounds the piece from below in any direction
+    (polytope vertices with pad 0; sampled arcs with their sagitta as pad)
+"""
 
 #: layout of :func:`quat_step`'s output block: Q+ (4), E(Q) (4x3), E(Q+) (4x3), d(theta)/d(w+) (3x3)
 QS_Q = 0

@@ -12,7 +12,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .geometry import CG_G, N_CG, N_QS, QS_Q, constraint_eval, cross, quat_step, quat_to_rot
+from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
     B_A1,
     B_A2,
@@ -73,18 +73,6 @@ from .layout import (
 )
 from .newton import Workspace, make_workspace, solve
 from .residual import Problem, residual
-
-Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
-Geometry.__doc__ = """Robot geometry in scaled body coordinates, as kernel arrays.
-
-ctype, cdata : int64[M], float64[M, 4]   convex constraints (see ``constraint_eval``)
-carea : float64[M]   adhering area when that constraint alone touches the plane
-cline : int64[M]     1 if that constraint alone touching the plane is line contact
-pstart : int64[K+1]  piece k owns constraints pstart[k]:pstart[k+1]
-sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
-    points whose lowest one, minus the pad, bounds the piece from below in any direction
-    (polytope vertices with pad 0; sampled arcs with their sagitta as pad)
-"""
 
 Model = namedtuple("Model", ["prm", "geo"])
 Model.__doc__ = """One robot on one substrate: its run constants ``prm`` (float64[N_PRM], ``P_*``) and

@@ -10,8 +10,9 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.kernels import layout as L
+from tumblemc.kernels.geometry import Geometry
 from tumblemc.kernels.residual import n_unknowns
-from tumblemc.kernels.stepper import Buffers, Clock, Geometry, Model, Start, empty_record, make_buffers, n_records, run
+from tumblemc.kernels.stepper import Buffers, Clock, Model, Start, empty_record, make_buffers, n_records, run
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
 from tumblemc.model.shapes.library import get_shape

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.stepper import Geometry
+from tumblemc.kernels.geometry import Geometry
 from tumblemc.model.units import LENGTH_M
 
 KINDS = {"plane": L.C_PLANE, "cylinder_x": L.C_CYL_X}
