@@ -214,7 +214,11 @@ def naive_model(z, sc, prm, ctype, cdata, pstart, mu_s=0.0) -> dict:  # type: ig
         pairs[blk["ln"]] = (ln, nrm @ a1)
 
     F[0:3] = mass * (v_new - v0) / h - force_sum - f_ext
-    F[3:6] = I_new @ (w_new - w0) / h + np.cross(w0, I_new @ w0) - moment_sum - torque
+    if prm[L.P_ROT_PAPER] == 1.0:  # the paper's explicit gyroscopic form
+        F[3:6] = I_new @ (w_new - w0) / h + np.cross(w0, I_new @ w0) - moment_sum - torque
+    else:  # momentum form: (I+ w+ - I w) / h with I at the start pose
+        R0 = rotmat(q0)
+        F[3:6] = (I_new @ w_new - R0 @ Ib @ R0.T @ w0) / h - moment_sum - torque
     for row, (a, b) in pairs.items():
         F[row] = fb_exact(a, b) if mu_s == 0.0 else fb_smooth_exact(a, b, mu_s)
     return {"F": F, "pairs": pairs}

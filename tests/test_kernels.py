@@ -131,6 +131,9 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
     Ib = A @ A.T + rng.uniform(0.2, 2.0) * np.eye(3)  # symmetric positive definite
     prm[L.P_IB : L.P_IB + 9] = Ib.ravel()
     prm[L.P_FIELD_ON] = 1.0
+    # both rotation rows (momentum form, the paper's explicit form), from a separate stream
+    # so that every other draw stays what it was
+    prm[L.P_ROT_PAPER] = 1.0 if np.random.default_rng([seed, 1]).random() < 0.5 else 0.0
 
     sc = np.zeros(L.N_SC)
     sc[L.S_X : L.S_X + 3] = rng.normal(size=3) * 2.0

@@ -46,6 +46,7 @@ LAYERS: dict[str, int] = {
     "tumblemc.study": 3,
     "tumblemc.viz": 4,
     # run simulations and draw figures: only the command line may import them
+    "tumblemc.convergence": 5,
     "tumblemc.claims": 5,
     "tumblemc.stepcost": 5,
     "tumblemc.cli": 6,

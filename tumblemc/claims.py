@@ -21,23 +21,10 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from tumblemc.model.outcome import summarize
+from tumblemc.convergence import CONVERGENCE_CASES, convergence, default_dt, timed_run
 from tumblemc.model.params import PRESETS
-from tumblemc.model.run import DEFAULT_DT, simulate
+from tumblemc.model.run import DEFAULT_DT
 from tumblemc.model.shapes.library import get_shape
-
-#: time steps of the dt-convergence table, s
-CONVERGENCE_DTS = (5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
-
-#: scenarios of the dt-convergence table: (name, keyword arguments of simulate)
-CONVERGENCE_CASES: tuple[tuple[str, dict[str, Any]], ...] = (
-    ("flat paper 1 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=1.0)),
-    ("flat paper 10 Hz", dict(preset="paper", incline_deg=0.0, freq_hz=10.0)),
-    ("paper 45 deg", dict(preset="paper", incline_deg=45.0, freq_hz=1.0)),
-    ("aluminum 20 deg", dict(preset="aluminum", incline_deg=20.0, freq_hz=1.0)),
-    ("aluminum 30 deg", dict(preset="aluminum", incline_deg=30.0, freq_hz=1.0)),
-)
-
 
 _C = PRESETS["paper"].adhesion_C
 _L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
@@ -72,13 +59,6 @@ class Report:
         self.rows.append(Row(*args, **kw))
 
 
-def _run(periods: float = 2.0, **kw: Any) -> tuple[Any, dict[str, Any], float]:
-    t0 = time.perf_counter()
-    ds = simulate(duration_s=periods / kw.get("freq_hz", 1.0), **kw)
-    s = summarize(ds)
-    return ds, s, time.perf_counter() - t0
-
-
 def _robust(rep: Report, name: str, s: dict[str, Any], wall: float) -> None:
     rep.robustness.append(
         {
@@ -100,7 +80,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     ax = fig.add_subplot()
     inclines = (5, 10, 15, 30, 45, 60)
     for th in inclines:
-        ds, s, wall = _run(preset="paper", incline_deg=float(th))
+        ds, s, wall = timed_run(preset="paper", incline_deg=float(th))
         want = th <= 45
         ok = s["climbed"] == want
         rep.add(
@@ -118,7 +98,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     fig.savefig(figdir / "paper_inclines.png", dpi=120)
 
     for th, want in ((30, True), (45, False)):
-        ds, s, wall = _run(preset="aluminum", incline_deg=float(th))
+        ds, s, wall = timed_run(preset="aluminum", incline_deg=float(th))
         ok = s["climbed"] == want
         note = ""
         if not ok:
@@ -138,7 +118,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
 
     # sensitivity of the aluminum 30 deg verdict
     for frac in (0.05, 0.25, 0.5, 1.0):
-        _, s, _ = _run(preset="aluminum", incline_deg=30.0, line_contact_fraction=frac)
+        _, s, _ = timed_run(preset="aluminum", incline_deg=30.0, line_contact_fraction=frac)
         rep.add(
             "S1",
             f"aluminum, 30 deg, line_contact_fraction={frac}",
@@ -147,7 +127,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
             "(sensitivity)",
             "report",
         )
-    _, s, _ = _run(preset="aluminum", incline_deg=30.0, torque="end", dt=5e-4)
+    _, s, _ = timed_run(preset="aluminum", incline_deg=30.0, torque="end", dt=5e-4)
     rep.add(
         "S1",
         "aluminum, 30 deg, paper numerics (torque=end, dt=5e-4)",
@@ -161,7 +141,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     freqs = (1, 2, 4, 6, 8, 10)
     ratios, slips, speeds = [], [], []
     for f in freqs:
-        ds, s, wall = _run(periods=2.0 if quick else max(2.0, f * 1.0), preset="paper", incline_deg=0.0, freq_hz=float(f))
+        ds, s, wall = timed_run(periods=2.0 if quick else max(2.0, f * 1.0), preset="paper", incline_deg=0.0, freq_hz=float(f))
         ratios.append(s["progress_ratio"])
         slips.append(s["mean_slip_speed"])
         speeds.append(s["mean_speed"])
@@ -201,8 +181,13 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         ),
     )
     for f in (1, 4, 10):
-        _, s, _ = _run(
-            periods=2.0 if quick else max(2.0, f * 1.0), preset="paper", incline_deg=0.0, freq_hz=float(f), torque="end", dt=5e-4
+        _, s, _ = timed_run(
+            periods=2.0 if quick else max(2.0, f * 1.0),
+            preset="paper",
+            incline_deg=0.0,
+            freq_hz=float(f),
+            torque="end",
+            dt=5e-4,
         )
         rep.add(
             "S2",
@@ -223,7 +208,7 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     fig.savefig(figdir / "frequency_sweep.png", dpi=120)
 
     # adhesion plateaus on the 45 deg paper incline
-    ds, s, _ = _run(preset="paper", incline_deg=45.0)
+    ds, s, _ = timed_run(preset="paper", incline_deg=45.0)
     adh = ds["adhesion_force"].values
     mode = ds["contact_mode"].values
     face = np.isclose(adh, FACE_ADHESION, rtol=1e-3).any()
@@ -273,7 +258,7 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     for preset in ("paper", "aluminum"):
         speeds[preset] = {}
         for shape in SHAPE_ORDER:
-            _, s, wall = _run(periods=periods, shape=shape, preset=preset, incline_deg=0.0, freq_hz=10.0)
+            _, s, wall = timed_run(periods=periods, shape=shape, preset=preset, incline_deg=0.0, freq_hz=10.0)
             speeds[preset][shape] = s["mean_speed"]
             rep.add(
                 "C6",
@@ -307,7 +292,7 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     mismatched = []
     for th, want in SHAPE_CLIMBS.items():
         for shape in SHAPE_ORDER:
-            _, s, wall = _run(shape=shape, preset="aluminum", incline_deg=float(th))
+            _, s, wall = timed_run(shape=shape, preset="aluminum", incline_deg=float(th))
             ok = s["climbed"] == want[shape]
             rep.add(
                 "C7",
@@ -323,7 +308,7 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     # what decides a verdict that differs: the adhesion of line contact (MODEL.md), and friction
     for shape, th in mismatched[: 2 if quick else None]:
         for frac in (0.0, 0.25):
-            _, s, _ = _run(shape=shape, preset="aluminum", incline_deg=float(th), line_contact_fraction=frac)
+            _, s, _ = timed_run(shape=shape, preset="aluminum", incline_deg=float(th), line_contact_fraction=frac)
             rep.add(
                 "S3",
                 f"{shape}, aluminum, {th} deg, line_contact_fraction={frac}",
@@ -333,60 +318,10 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
                 "report",
             )
         for mu in (0.45, 0.65):
-            _, s, _ = _run(shape=shape, preset="aluminum", incline_deg=float(th), mu=mu)
+            _, s, _ = timed_run(shape=shape, preset="aluminum", incline_deg=float(th), mu=mu)
             rep.add(
                 "S3", f"{shape}, aluminum, {th} deg, mu={mu}", "progress ratio", f"{s['progress_ratio']:.3f}", "(sensitivity)", "report"
             )
-
-
-def convergence(quick: bool = False) -> list[dict[str, Any]]:
-    """Progress ratio and verdict against dt for both torque options (issue acceptance)."""
-    dts = CONVERGENCE_DTS[:3] if quick else CONVERGENCE_DTS
-    out = []
-    for name, kw in CONVERGENCE_CASES:
-        for torque in ("start", "end"):
-            for dt in dts:
-                _, s, wall = _run(dt=dt, torque=torque, **kw)
-                out.append(
-                    {
-                        "case": name,
-                        "torque": torque,
-                        "dt": dt,
-                        "progress_ratio": s["progress_ratio"],
-                        "climbed": s["climbed"],
-                        "failed_steps": s["failed_steps"],
-                        "loose_steps": s["loose_steps"],
-                        "substeps": s["substeps"],
-                        "wall_s": wall,
-                    }
-                )
-    return out
-
-
-def default_dt(table: list[dict[str, Any]], torque: str = "start", rel: float = 0.02) -> tuple[float | None, dict[str, float]]:
-    """Largest dt whose verdicts match the finest dt and whose ratios are within ``rel``.
-
-    The ratio criterion applies to cases that climb at the finest dt: there the progress
-    ratio measures the accuracy of the gait. A robot that fails slides or tumbles down
-    chaotically and its ratio does not converge (the verdict does), so for those cases
-    only the verdict must match. Returns the dt and, per case, the largest qualifying dt
-    (qualifying dts must be contiguous from the finest).
-    """
-    cases = sorted({r["case"] for r in table})
-    per_case: dict[str, float] = {}
-    for c in cases:
-        rows = sorted((r for r in table if r["case"] == c and r["torque"] == torque), key=lambda r: r["dt"])
-        ref = rows[0]
-        best = ref["dt"]
-        for r in rows:
-            ok = r["climbed"] == ref["climbed"]
-            if ref["climbed"]:
-                ok = ok and abs(r["progress_ratio"] - ref["progress_ratio"]) <= rel * abs(ref["progress_ratio"])
-            if not ok:
-                break
-            best = r["dt"]
-        per_case[c] = best
-    return (min(per_case.values()) if per_case else None), per_case
 
 
 def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
@@ -397,7 +332,7 @@ def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
     for k in range(n):
         axis = rng.normal(size=3)
         ang = float(rng.uniform(0.0, 30.0))
-        ds, s, wall = _run(preset="paper", incline_deg=0.0, offset_deg=ang, offset_axis=tuple(axis))
+        ds, s, wall = timed_run(preset="paper", incline_deg=0.0, offset_deg=ang, offset_axis=tuple(axis))
         worst_pen = max(worst_pen, s["max_penetration"])
         fails += s["failed_steps"]
         yaw = float(np.abs(ds["omega"].values[:, 2]).max())

@@ -28,7 +28,7 @@ from typing import Any
 
 from tumblemc.io import write_run
 from tumblemc.model.params import Params
-from tumblemc.model.run import TORQUE_OPTIONS
+from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.version import __version__
 
 EXIT_OK = 0
@@ -117,6 +117,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration-s", type=float, default=2.0, help="simulated time, s (default: 2)")
     s.add_argument("--dt", type=float, default=None, help="time step, s (default: the package default)")
     s.add_argument("--torque", choices=TORQUE_OPTIONS, default="start", help="magnetic torque at the step start (default) or end")
+    s.add_argument(
+        "--rotation",
+        choices=ROTATION_OPTIONS,
+        default="paper",
+        help="rotational row: the paper's explicit form (default) or the momentum form",
+    )
     s.add_argument("--record-every", type=int, default=1, help="record every k-th step (default: 1)")
     s.add_argument(
         "--set",
@@ -218,6 +224,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         duration_s=args.duration_s,
         dt=args.dt,
         torque=args.torque,
+        rotation=args.rotation,
         record_every=args.record_every,
         **overrides,
     )

@@ -15,7 +15,9 @@ world inertia ``I+ = R+ Ib R+^T``; ``r = a1 - x+``; plane ``g(x) = n.x`` (substr
 Rows (``Fc = lam_n n + lam_t t + lam_o o``):
 
 - Newton-Euler (6): ``m (v+ - v)/h - sum Fc - F_ext``;
-  ``I+ (w+ - w)/h + w x (I+ w) - sum (r x Fc + lam_r n) - T_m``, where ``T_m`` is the
+  ``(I+ w+ - I w)/h - sum (r x Fc + lam_r n) - T_m`` (momentum form, ``I`` the world
+  inertia at the start pose; with ``prm[P_ROT_PAPER]`` the paper's
+  ``I+ (w+ - w)/h + w x (I+ w)``), where ``T_m`` is the
   start-of-step torque or, with ``torque="end"``, ``(R+ e_b) x B(t+h)`` scaled.
 - per block:
   ``a1 - a2 - l_s n`` (3) and ``sum_i l_i N_i + n`` (3): the ECP / closest-point
@@ -56,6 +58,7 @@ from .layout import (
     P_MU,
     P_N,
     P_O,
+    P_ROT_PAPER,
     P_T,
     P_TORQUE_END,
     S_BEND,
@@ -131,7 +134,9 @@ RS_IPW = 81  # I+ w
 RS_VC = 84  # velocity of the ECP
 RS_NC = 87  # normal-cone row
 RS_MW = 90  # R+ e_b
-RS_QS = 93  # quat_step's block (N_QS): Q+, E(Q), E(Q+), d(theta)/d(w+)
+RS_IPZ = 93  # I+ w+ (momentum form)
+RS_L0 = 96  # I w: angular momentum at the start of the step (momentum form)
+RS_QS = 99  # quat_step's block (N_QS): Q+, E(Q), E(Q+), d(theta)/d(w+)
 RS_QN = RS_QS + QS_Q  # Q+ (4)
 RS_JTH = RS_QS + QS_JTH  # d(theta)/d(w+)
 RS_CG = RS_QS + N_QS  # constraint_eval's block (N_CG): gradient and Hessian (body frame)
@@ -233,6 +238,31 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
             b += s[RS_IP + 3 * i + j] * sc[S_W + j]
         s[RS_IPD + i] = a
         s[RS_IPW + i] = b
+    rot_paper = prm[P_ROT_PAPER] > 0.5
+    if not rot_paper:
+        # momentum form (MODEL.md): I+ w+ and I w = R (Ib (R^T w)) at the start pose; R at
+        # RS_M2 is free until the Jacobian (RS_M1 holds Ib R+^T, not needed any more)
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += s[RS_IP + 3 * i + j] * z[3 + j]
+            s[RS_IPZ + i] = acc
+        quat_to_rot(sc, S_Q, s, RS_M2)
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += s[RS_M2 + 3 * j + i] * sc[S_W + j]
+            s[RS_V2 + i] = acc
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += prm[P_IB + 3 * i + j] * s[RS_V2 + j]
+            s[RS_V1 + i] = acc
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += s[RS_M2 + 3 * i + j] * s[RS_V1 + j]
+            s[RS_L0 + i] = acc
 
     for i in range(n):
         F[i] = 0.0
@@ -243,10 +273,15 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
                 J[i, j] = 0.0
 
     # ---- Newton-Euler, applied part --------------------------------------------------
-    cross(sc, S_W, s, RS_IPW, s, RS_V1)
-    for i in range(3):
-        F[i] = m * (z[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
-        F[3 + i] = s[RS_IPD + i] / h + s[RS_V1 + i]
+    if rot_paper:  # the paper's form: forward Euler on Euler's equations (gains energy in 3-D)
+        cross(sc, S_W, s, RS_IPW, s, RS_V1)
+        for i in range(3):
+            F[i] = m * (z[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
+            F[3 + i] = s[RS_IPD + i] / h + s[RS_V1 + i]
+    else:  # momentum form: keeps the angular momentum of a free body exactly
+        for i in range(3):
+            F[i] = m * (z[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
+            F[3 + i] = (s[RS_IPZ + i] - s[RS_L0 + i]) / h
     torque_end = prm[P_TORQUE_END] > 0.5
     if torque_end:
         for i in range(3):
@@ -264,20 +299,28 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
     if want_J:
         for i in range(3):
             J[i, i] = m / h
-        # d/dw of I+ dl / h + w0 x (I+ w0): (-[I+ dl]x + I+ [dl]x) Jth / h + [w0]x(-[I+ w0]x + I+ [w0]x) Jth
-        skew(s, RS_IPD, s, RS_M1)
-        skew(s, RS_DL, s, RS_M2)
-        _mm(s, RS_IP, RS_M2, RS_M3)
-        for i in range(9):
-            s[RS_M3 + i] = (s[RS_M3 + i] - s[RS_M1 + i]) / h
-        skew(s, RS_IPW, s, RS_M1)
-        skew(sc, S_W, s, RS_M2)
-        _mm(s, RS_IP, RS_M2, RS_HL)
-        for i in range(9):
-            s[RS_HL + i] -= s[RS_M1 + i]
-        _mm(s, RS_M2, RS_HL, RS_M1)  # [w0]x (...)
-        for i in range(9):
-            s[RS_M3 + i] += s[RS_M1 + i]
+        if rot_paper:
+            # d/dw of I+ dl / h + w0 x (I+ w0): (-[I+ dl]x + I+ [dl]x) Jth / h + [w0]x(-[I+ w0]x + I+ [w0]x) Jth
+            skew(s, RS_IPD, s, RS_M1)
+            skew(s, RS_DL, s, RS_M2)
+            _mm(s, RS_IP, RS_M2, RS_M3)
+            for i in range(9):
+                s[RS_M3 + i] = (s[RS_M3 + i] - s[RS_M1 + i]) / h
+            skew(s, RS_IPW, s, RS_M1)
+            skew(sc, S_W, s, RS_M2)
+            _mm(s, RS_IP, RS_M2, RS_HL)
+            for i in range(9):
+                s[RS_HL + i] -= s[RS_M1 + i]
+            _mm(s, RS_M2, RS_HL, RS_M1)  # [w0]x (...)
+            for i in range(9):
+                s[RS_M3 + i] += s[RS_M1 + i]
+        else:
+            # d/dw of (I+ w+) / h: (-[I+ w+]x + I+ [w+]x) Jth / h (dI+ = [dth]x I+ - I+ [dth]x)
+            skew(s, RS_IPZ, s, RS_M1)
+            skew(z, 3, s, RS_M2)
+            _mm(s, RS_IP, RS_M2, RS_M3)
+            for i in range(9):
+                s[RS_M3 + i] = (s[RS_M3 + i] - s[RS_M1 + i]) / h
         if torque_end:
             # T = mw x B, d mw = -[mw]x dtheta -> dT = [B]x [mw]x dtheta
             skew(sc, S_BEND, s, RS_M1)

@@ -69,6 +69,7 @@ class TimeGrid:
     transient_periods: float = 1.0
     dt: float | None = None
     torque: str = "start"
+    rotation: str = "paper"
     success_ratio: float = 0.5
     max_failed_steps: int = 0  # 0: never stop a run early (as simulate); studies use 1
 
@@ -109,7 +110,9 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
     solver = SolverOptions(max_failed_steps=grid.max_failed_steps)
     for i, row in enumerate(rows):
         try:  # the run's inputs are validated here, once (run_inputs), and trusted after
-            spec = prepare(run_inputs(shp, periods=grid.periods, dt=grid.dt, torque=grid.torque, solver=solver, **row))
+            spec = prepare(
+                run_inputs(shp, periods=grid.periods, dt=grid.dt, torque=grid.torque, rotation=grid.rotation, solver=solver, **row)
+            )
         except (ValueError, TypeError) as exc:
             errors[i] = str(exc)
             continue

@@ -29,6 +29,10 @@ DEFAULT_DT = 5e-5
 
 
 TORQUE_OPTIONS: tuple[str, ...] = ("start", "end")
+#: the rotational row (MODEL.md, discrete model): "paper", the paper's I+ (w+ - w)/h + w x (I+ w)
+#: (forward Euler on Euler's equations; still the default, see README "Departures"), or
+#: "momentum", (I+ w+ - I w)/h, which keeps a free body's angular momentum
+ROTATION_OPTIONS: tuple[str, ...] = ("paper", "momentum")
 
 
 MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
@@ -53,6 +57,7 @@ class RunInputs:
     dt: float
     n_steps: int
     torque: str
+    rotation: str
     record_every: int
     solver: SolverOptions
     lift_m: float
@@ -72,6 +77,7 @@ class RunSpec:
     duration_s: float
     dt: float
     torque: str
+    rotation: str
     units: Units
     prm: np.ndarray
     state0: np.ndarray
@@ -121,6 +127,7 @@ def run_inputs(
     *,
     periods: float | None = None,
     torque: str = "start",
+    rotation: str = "paper",
     record_every: int = 1,
     solver: SolverOptions | None = None,
     lift_m: float = 0.0,
@@ -162,6 +169,7 @@ def run_inputs(
     duration_s = RANGES["duration_s"].check("duration_s", DEFAULT_DURATION_S if duration_s is None else duration_s)
     dt = DEFAULT_DT if dt is None else RANGES["dt"].check("dt", dt)
     torque = _check_choice("torque", torque, TORQUE_OPTIONS)
+    rotation = _check_choice("rotation", rotation, ROTATION_OPTIONS)
     if isinstance(record_every, bool) or not float(check_number("record_every", record_every, "", 1, 1e9)).is_integer():
         raise ValueError(f"record_every={record_every!r} is not allowed (allowed: an integer >= 1)")
     record_every = int(record_every)
@@ -185,6 +193,7 @@ def run_inputs(
         dt=dt,
         n_steps=n_steps,
         torque=torque,
+        rotation=rotation,
         record_every=record_every,
         solver=solver or SolverOptions(),
         lift_m=lift_m,
@@ -219,6 +228,7 @@ def prepare(inputs: RunInputs) -> RunSpec:
     prm[L.P_EB : L.P_EB + 3] = params.magnetisation_dir()
     prm[L.P_IB : L.P_IB + 9] = (shp.inertia(params.mass) / u.inertia).ravel()
     prm[L.P_FIELD_ON] = 1.0 if prm[L.P_TORQ] > 0.0 else 0.0
+    prm[L.P_ROT_PAPER] = 1.0 if inputs.rotation == "paper" else 0.0
 
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
@@ -236,6 +246,7 @@ def prepare(inputs: RunInputs) -> RunSpec:
         duration_s=inputs.duration_s,
         dt=inputs.dt,
         torque=inputs.torque,
+        rotation=inputs.rotation,
         units=u,
         prm=prm,
         state0=state0,
@@ -329,6 +340,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "duration_s": spec.duration_s,
             "dt": spec.dt,
             "torque": spec.torque,
+            "rotation": spec.rotation,
             "record_every": spec.record_every,
             "hull_perimeter": spec.shape.hull_perimeter,
             "ideal_speed": spec.shape.hull_perimeter * spec.freq_hz,
@@ -353,6 +365,7 @@ def simulate(
     *,
     periods: float | None = None,
     torque: str = "start",
+    rotation: str = "paper",
     record_every: int = 1,
     solver: SolverOptions | None = None,
     lift_m: float = 0.0,
@@ -378,6 +391,12 @@ def simulate(
         Simulated time in field periods instead of ``duration_s`` (``periods / freq_hz``).
     dt : float, optional
         Time step, s; ``None`` takes :data:`DEFAULT_DT` (set by the convergence study).
+    rotation : {"paper", "momentum"}
+        The rotational row of the discrete model: ``"paper"`` (default), the paper's
+        explicit gyroscopic form, which gains energy in a spin off a principal axis, or
+        ``"momentum"``, which keeps a free body's angular momentum and never makes energy
+        (MODEL.md, "The discrete model"; not yet the default: README, "Departures").
+        Planar motion is the same in both to rounding.
     torque : {"start", "end"}
         Where in the step the magnetic torque is evaluated: ``"start"`` (default, accurate)
         or ``"end"`` (the paper's choice; numerically damped, see MODEL.md "Numerics").
@@ -407,6 +426,7 @@ def simulate(
             dt,
             periods=periods,
             torque=torque,
+            rotation=rotation,
             record_every=record_every,
             solver=solver,
             lift_m=lift_m,

@@ -36,6 +36,7 @@ transient_periods    periods discarded before measuring (default 1); at least on
                      must remain (``transient_periods <= periods - 1``)
 dt                   time step, s (default: the simulator's ``DEFAULT_DT``)
 torque               ``"start"`` (default) or ``"end"``
+rotation             ``"paper"`` (default) or ``"momentum"`` (the rotational row, MODEL.md)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
 samples*             runs per cell, integer >= 1
 sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
@@ -117,24 +118,7 @@ suggests ``truncnormal``. ``truncnormal`` cuts at ``lower``/``upper`` (inside th
 and must keep at least :data:`MIN_KEPT_MASS` of the normal. ``uniform`` and
 ``triangular`` must lie inside the range.
 
-*Samplers.* Uniforms in (0, 1) are mapped through each distribution's ppf.
-
-- ``mc`` (default): one stream per run, ``SeedSequence([seed, *cell_hash, sample])``,
-  one slot of it per possible uncertain parameter (:data:`UNCERTAIN_PARAMS` order), so a
-  run's draw does not depend on the other runs, on ``samples``, or on which other
-  parameters are uncertain. Per-cell success counts are exactly binomial, which is what
-  the Wilson and Clopper-Pearson intervals assume: the reported intervals are honest.
-- ``sobol``: scrambled Sobol points (:class:`scipy.stats.qmc.Sobol`) seeded by
-  ``SeedSequence([seed, *cell_hash])``; ``2**ceil(log2 N)`` points are drawn and the first
-  N kept, so growing ``samples`` keeps the earlier runs (balance is best when N is a
-  power of two). Estimates usually have lower variance than ``mc``, but the runs of a
-  cell are not independent, so binomial intervals are only approximate for it.
-- ``lhs``: Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`) seeded by the cell.
-  Independent of other cells and of run order, but *not* prefix-stable: changing
-  ``samples`` redraws every run of the cell.
-
-Changing :data:`SAMPLING_SCHEME` (any change to how draws are derived) changes every
-:func:`config_hash`.
+*Samplers.* ``mc``, ``sobol`` and ``lhs``: see :mod:`tumblemc.study.design`.
 """
 
 from __future__ import annotations
@@ -151,7 +135,7 @@ from pathlib import Path
 from typing import Any
 
 from tumblemc.model.params import PRESETS, RANGES
-from tumblemc.model.run import TORQUE_OPTIONS
+from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
 from tumblemc.study.checks import (
@@ -181,6 +165,7 @@ SAMPLERS = ("mc", "sobol", "lhs")
 
 
 TORQUES = TORQUE_OPTIONS  # the simulator's torque options
+ROTATIONS = ROTATION_OPTIONS  # and rotation rows
 
 
 MAX_SAMPLES = 1_000_000
@@ -228,6 +213,7 @@ class StudyConfig:
     transient_periods: float = 1.0
     dt: float | None = None
     torque: str = "start"
+    rotation: str = "paper"
     success_ratio: float = 0.5
     sampler: str = "mc"
     ci: str = "wilson"
@@ -306,6 +292,7 @@ _COMMON_KEYS = (
     "transient_periods",
     "dt",
     "torque",
+    "rotation",
     "success_ratio",
     "samples",
     "sampler",
@@ -407,6 +394,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
         )
     dt = None if d.get("dt") is None else check_num("dt", d["dt"], RANGES["dt"].lo, RANGES["dt"].hi)
     torque = check_choice("torque", d.get("torque", "start"), TORQUES)
+    rotation = check_choice("rotation", d.get("rotation", "paper"), ROTATIONS)
     success_ratio = check_num("success_ratio", d.get("success_ratio", 0.5), 0.0, 1.0, lo_open=True)
     samples = check_int("samples", req("samples", f"an integer in [1, {MAX_SAMPLES}]"), 1, MAX_SAMPLES)
     sampler = check_choice("sampler", d.get("sampler", "mc"), SAMPLERS)
@@ -447,6 +435,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
         transient_periods=transient,
         dt=dt,
         torque=torque,
+        rotation=rotation,
         success_ratio=success_ratio,
         sampler=sampler,
         ci=ci,
@@ -472,6 +461,12 @@ def cells(config: StudyConfig) -> list[dict[str, Any]]:
     return _MODES[config.mode].cells(config)
 
 
+#: keys added to the schema after studies were written, with the value every earlier study
+#: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
+#: config hash (its results and shards stay valid)
+ADDED_KEYS: dict[str, object] = {"rotation": "paper"}
+
+
 def config_to_json(config: StudyConfig) -> str:
     """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg`` expanded, ``[execution]`` left out.
 
@@ -485,6 +480,9 @@ def config_to_json(config: StudyConfig) -> str:
     d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
     if config.mode == "grid":  # keys only the critical-incline mode takes
         del d["incline_range"], d["incline_tol"]
+    for key, default in ADDED_KEYS.items():  # keys added later: only when not at their default
+        if d[key] == default:
+            del d[key]
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 

@@ -4,6 +4,25 @@ Run keys, seeded uniforms per run (``mc``, ``sobol``, ``lhs``), the run table
 (:func:`design`), the keyword rows handed to the batch path, the time grid and the
 numerical-check subset. Randomness is data: a run's draw depends only on the root seed
 and the run's identity.
+
+*Samplers.* Uniforms in (0, 1) are mapped through each distribution's ppf.
+
+- ``mc`` (default): one stream per run, ``SeedSequence([seed, *cell_hash, sample])``,
+  one slot of it per possible uncertain parameter (:data:`UNCERTAIN_PARAMS` order), so a
+  run's draw does not depend on the other runs, on ``samples``, or on which other
+  parameters are uncertain. Per-cell success counts are exactly binomial, which is what
+  the Wilson and Clopper-Pearson intervals assume: the reported intervals are honest.
+- ``sobol``: scrambled Sobol points (:class:`scipy.stats.qmc.Sobol`) seeded by
+  ``SeedSequence([seed, *cell_hash])``; ``2**ceil(log2 N)`` points are drawn and the first
+  N kept, so growing ``samples`` keeps the earlier runs (balance is best when N is a
+  power of two). Estimates usually have lower variance than ``mc``, but the runs of a
+  cell are not independent, so binomial intervals are only approximate for it.
+- ``lhs``: Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`) seeded by the cell.
+  Independent of other cells and of run order, but *not* prefix-stable: changing
+  ``samples`` redraws every run of the cell.
+
+Changing :data:`SAMPLING_SCHEME` (any change to how draws are derived) changes every
+:func:`config_hash`.
 """
 
 from __future__ import annotations
@@ -223,6 +242,7 @@ def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict
         "duration_s": config.duration_s(b["freq_hz"]),
         "dt": config.dt,
         "torque": config.torque,
+        "rotation": config.rotation,
     }
 
 
@@ -246,6 +266,7 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
         transient_periods=cfg.transient_periods,
         dt=dt,
         torque=cfg.torque,
+        rotation=cfg.rotation,
         success_ratio=cfg.success_ratio,
         max_failed_steps=1,
     )
