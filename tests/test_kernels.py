@@ -604,3 +604,21 @@ def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
         ok2 = lu_factor(A2, ws2.piv, n, ws2.unz, ws2.ucnt, ws2.lnz, ws2.lcnt, amax)
         assert ok1 == ok2
         assert np.array_equal(A1, A2, equal_nan=True) and np.array_equal(ws1.piv, ws2.piv)
+
+
+def test_workspace_fields_by_name() -> None:
+    """make_workspace builds every field by name with its shape and dtype (a swap shows)."""
+    from tumblemc.kernels.residual import N_RS
+
+    n = 7
+    ws = make_workspace(n)
+    f, i = np.float64, np.int64
+    want = {
+        "F": ((n,), f), "J": ((n, n), f), "A": ((n, n), f), "d": ((n,), f), "zt": ((n,), f), "Ft": ((n,), f),
+        "g": ((n,), f), "fbb": ((n,), f), "isfb": ((n,), i), "piv": ((n,), i), "rs": ((N_RS,), f),
+        "Ft_isfb": ((n,), i), "unz": ((n, n), i), "ucnt": ((n,), i), "lnz": ((n, n), i), "lcnt": ((n,), i), "y": ((n,), f),
+    }  # fmt: skip
+    assert set(ws._fields) == set(want)
+    for name, (shape, dtype) in want.items():
+        arr = getattr(ws, name)
+        assert arr.shape == shape and arr.dtype == dtype, name
