@@ -23,13 +23,3 @@ JIT_OPTIONS: dict[str, object] = {"cache": True, "nogil": True, "error_model": "
 def jit(func):  # type: ignore[no-untyped-def]
     """Compile ``func`` with the project's jit policy (see module docstring)."""
     return numba.njit(**JIT_OPTIONS)(func)
-
-
-def jit_inline(func):  # type: ignore[no-untyped-def]
-    """Compile ``func`` with the same policy, inlined into its callers at Numba's IR level.
-
-    For the small geometry kernels (:mod:`tumblemc.kernels.geometry`) called from the
-    residual and the time loop: inlining happens before reference counting, so a call
-    costs nothing and there is one implementation for both callers.
-    """
-    return numba.njit(inline="always", **JIT_OPTIONS)(func)

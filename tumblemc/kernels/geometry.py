@@ -6,8 +6,10 @@ frame, so ``dQ/dt = 1/2 E(Q) omega`` with ``E`` from :func:`quat_E`.
 Every kernel here is the one implementation used by both the residual and the time loop,
 written on flat float64 arrays addressed by offsets (``a[ia:ia+3]`` a vector, ``o[io:io+9]``
 a 3x3 matrix row-major): an array view costs Numba an atomic reference-count pair, about a
-tenth of a time step in the residual. They are compiled with :func:`~._jit.jit_inline`, so
-a call is inlined into its caller.
+tenth of a time step in the residual. Plain :func:`~._jit.jit`: Numba's IR inlining
+(``inline="always"``) was measured and not kept (per step 0.955 of d5c7070 with it, 0.946
+without, within noise; cold compile 43 s with it, 37 s without): LLVM inlines these small
+kernels into their callers anyway.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
-from ._jit import jit_inline
+from ._jit import jit
 from .layout import C_CYL_X, C_PLANE
 
 Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
@@ -42,7 +44,7 @@ CG_H = 3
 N_CG = 12
 
 
-@jit_inline
+@jit
 def cross(a, ia, b, ib, o, io):  # type: ignore[no-untyped-def]
     """o[io:io+3] = a[ia:ia+3] x b[ib:ib+3]."""
     o[io] = a[ia + 1] * b[ib + 2] - a[ia + 2] * b[ib + 1]
@@ -50,7 +52,7 @@ def cross(a, ia, b, ib, o, io):  # type: ignore[no-untyped-def]
     o[io + 2] = a[ia] * b[ib + 1] - a[ia + 1] * b[ib]
 
 
-@jit_inline
+@jit
 def skew(a, ia, o, io):  # type: ignore[no-untyped-def]
     """o[io:io+9] (3x3 row-major) = [a[ia:ia+3]]x, the matrix with [a]x b = a x b."""
     o[io] = 0.0
@@ -64,7 +66,7 @@ def skew(a, ia, o, io):  # type: ignore[no-untyped-def]
     o[io + 8] = 0.0
 
 
-@jit_inline
+@jit
 def quat_to_rot(q, iq, R, iR):  # type: ignore[no-untyped-def]
     """R[iR:iR+9] (3x3 row-major) = rotation matrix of the unit quaternion q[iq:iq+4]."""
     w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
@@ -79,7 +81,7 @@ def quat_to_rot(q, iq, R, iR):  # type: ignore[no-untyped-def]
     R[iR + 8] = w * w - x * x - y * y + z * z
 
 
-@jit_inline
+@jit
 def quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
     """o[io:io+12] (4x3 row-major) = E(Q) with dQ/dt = 1/2 E(Q) omega (world-frame omega)."""
     w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
@@ -97,7 +99,7 @@ def quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
     o[io + 11] = w
 
 
-@jit_inline
+@jit
 def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
     """End-of-step orientation and its derivative into the block o[io:io+N_QS].
 
@@ -133,7 +135,7 @@ def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
     return nrm
 
 
-@jit_inline
+@jit
 def constraint_eval(ct, cdata, c, y, iy, o, io):  # type: ignore[no-untyped-def]
     """Value, gradient and Hessian (body frame) of constraint ``c`` at y[iy:iy+3].
 

@@ -113,7 +113,7 @@ def n_unknowns(pstart) -> int:  # type: ignore[no-untyped-def]
 # Views of a scratch array (``m33[0]``, ``z[0:3]``, ...) each cost Numba an atomic
 # reference-count increment and decrement, about a tenth of a time step's cost, so the
 # residual addresses one flat scratch array (and z, sc, prm) by offsets, and calls the
-# geometry kernels (:mod:`.geometry`, the one implementation, inlined) with offsets.
+# geometry kernels (:mod:`.geometry`, the one implementation) with offsets.
 # 3x3 matrices row-major (9 entries), vectors 3.
 RS_R = 0  # R+ (rotation at the end of the step)
 RS_IP = 9  # I+ (world inertia)
