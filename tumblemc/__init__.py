@@ -17,9 +17,22 @@ from tumblemc.model.outcome import summarize
 from tumblemc.model.params import PRESETS, Params, SolverOptions
 from tumblemc.model.run import simulate
 from tumblemc.model.shapes import SHAPES, Shape, extruded, get_shape
-from tumblemc.study.config import load_config
-from tumblemc.study.engine import run_study
 from tumblemc.version import __version__
+
+_LAZY = {"load_config": "tumblemc.study.config", "run_study": "tumblemc.study.engine"}
+
+
+def __getattr__(name: str) -> object:
+    """Import the study API on first use.
+
+    ``import tumblemc`` stays light: scipy.stats and the engine load only when a study runs.
+    """
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'tumblemc' has no attribute {name!r}")
+
 
 __all__ = [
     "PRESETS",
