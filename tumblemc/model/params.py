@@ -162,7 +162,8 @@ def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> 
     return y * math.cos(phi) + np.cross(k, y) * math.sin(phi) + k * (k @ y) * (1.0 - math.cos(phi))
 
 
-#: the numeric fields of :class:`Params`, each checked against :data:`RANGES`
+#: the numeric fields of :class:`Params`, each checked against :data:`RANGES`; this order is
+#: also the ``mc`` sampler's slot order (``study.distributions.UNCERTAIN_PARAMS``): append only
 NUMERIC_FIELDS = (
     "mass",
     "F_elect",

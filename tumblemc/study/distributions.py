@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from tumblemc.model.params import PRESETS, RANGES, describe_interval
+from tumblemc.model.params import NUMERIC_FIELDS, PRESETS, RANGES, describe_interval
 from tumblemc.study.checks import ConfigError, check_choice, check_no_unknown, check_num, check_required, check_table, config_error
 
 _INF = math.inf
@@ -36,21 +36,7 @@ U_EPS = 2.0**-53  # uniforms are kept in [eps, 1 - eps] so every ppf is finite
 
 #: the parameters that may be uncertain (each has a row in RANGES), in the order of the
 #: ``mc`` sampler's slots: part of the sampling scheme, append only
-UNCERTAIN_PARAMS: tuple[str, ...] = (
-    "mass",
-    "F_elect",
-    "mu",
-    "offset_deg",
-    "V_m",
-    "magnetization",
-    "adhesion_C",
-    "line_contact_fraction",
-    "e_t",
-    "e_o",
-    "e_r",
-    "g",
-    "field_mT",
-)
+UNCERTAIN_PARAMS: tuple[str, ...] = (*NUMERIC_FIELDS, "field_mT")
 
 
 #: the uncertainty assumed when a config has no ``[uncertain]`` table
