@@ -136,6 +136,8 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     assert loose["loose_steps"] > 0
     strict = tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0, max_failed_steps=1))
     assert strict.attrs["failed_steps"] >= 1  # stopped there: too short to summarize
+    assert strict.attrs["status"] == 1  # failed_steps: simulate flags the run as not valid
+    assert strict.attrs["kernel_status"] == 4  # the time loop stopped (ST_STOPPED)
 
 
 @pytest.mark.parametrize(

@@ -41,10 +41,15 @@ def climbing_run() -> xr.Dataset:
     return ds
 
 
+def test_simulate_reports_the_outcome_status(climbing_run: xr.Dataset) -> None:
+    assert climbing_run.attrs["status"] == BATCH_OK and climbing_run.attrs["kernel_status"] == L.ST_OK
+
+
 def test_summarize_failed_steps_never_climbed(climbing_run: xr.Dataset) -> None:
     ds = climbing_run.copy()
     ds.attrs["failed_steps"] = 1  # a step kept unconverged: the run is not valid
     s = tumblemc.summarize(ds)
+    assert s["status"] == BATCH_FAILED_STEPS
     assert s["progress_ratio"] >= 0.5  # the ratio is still reported ...
     assert not s["climbed"]  # ... but it is no success
 

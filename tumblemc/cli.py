@@ -246,7 +246,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     print(format_table(summary))
     status = int(ds.attrs.get("status", 0))
     if status != 0:
-        print(f"warning: the run stopped early (status {status}, failed steps {ds.attrs.get('failed_steps')})", file=sys.stderr)
+        meaning = {1: "a step did not converge", 2: "the state became non-finite"}.get(status, "see status_meanings")
+        print(f"warning: the run is not valid (status {status}: {meaning}; failed steps {ds.attrs.get('failed_steps')})", file=sys.stderr)
         return EXIT_RUN_FAILED
     return EXIT_OK
 

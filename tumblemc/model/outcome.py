@@ -64,8 +64,9 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
         between the solver's ``tol`` and ``accept_tol``), ``mean_newton_iterations``,
         ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
-        ``status`` (0: ok; otherwise the run stopped early, speed and ratio are NaN and
-        ``climbed`` is False).
+        ``status`` (:func:`run_status`: 0 ok; 1 failed_steps, a step kept unconverged, so
+        the run is not valid and never climbed, its speed and ratio are still reported
+        unless the run stopped early; 2 nonfinite, speed and ratio NaN).
     """
     transient_periods = check_number("transient_periods", transient_periods, "", 0.0, 1e6)
     threshold = check_number("threshold", threshold, "", -1e6, 1e6)
@@ -87,15 +88,17 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
     mean_speed = (prog[-1] - prog[i0]) / dur
     ideal = float(ds.attrs["ideal_speed"])
     ratio = mean_speed / ideal
-    status = int(ds.attrs["status"])
-    if status != 0:  # the run stopped early (non-finite state): no verdict
+    # runs written before 2026-11-23 hold the time loop's code in "status"
+    kernel_status = int(ds.attrs.get("kernel_status", ds.attrs["status"]))
+    if kernel_status != 0:  # the run stopped early (non-finite state, or too many failed steps)
         mean_speed = ratio = math.nan
+    status = run_status(kernel_status, int(ds.attrs["failed_steps"]), math.isfinite(ratio))
     n_steps = max(int(ds.attrs["n_steps"]), 1)
     return {
         "mean_speed": float(mean_speed),
         "ideal_speed": ideal,
         "progress_ratio": float(ratio),
-        "climbed": bool(climbed(ratio, run_status(status, int(ds.attrs["failed_steps"]), math.isfinite(ratio)), threshold)),
+        "climbed": bool(climbed(ratio, status, threshold)),
         "max_penetration": float(ds["penetration"].max()),
         "failed_steps": int(ds.attrs["failed_steps"]),
         "loose_steps": int(ds["loose"].sum()) if "loose" in ds else 0,

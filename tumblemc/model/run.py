@@ -14,6 +14,7 @@ from tumblemc.kernels.geometry import Geometry
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Buffers, Clock, Model, Start, empty_record, make_buffers, n_records, run
 from tumblemc.model.frames import plane_frame, rot_to_quat
+from tumblemc.model.outcome import run_status
 from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
@@ -344,7 +345,10 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "record_every": spec.record_every,
             "hull_perimeter": spec.shape.hull_perimeter,
             "ideal_speed": spec.shape.hull_perimeter * spec.freq_hz,
-            "status": int(status),
+            # outcome status (schema.STATUS_FLAGS): a run with a failed step is not "ok"
+            "status": run_status(int(status), int(failed)),
+            "status_meanings": "0 ok, 1 failed_steps, 2 nonfinite",
+            "kernel_status": int(status),
             "failed_steps": int(failed),
             "n_steps": spec.n_steps,
             **{f"solver_{k}": v for k, v in vars(spec.solver).items()},
