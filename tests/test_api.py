@@ -244,3 +244,12 @@ def test_contact_state_classification() -> None:
     z[23] = 0.0  # no normal force: no contact
     mode, area, *_ = _contact_state(z, state, prm, geo, scr)
     assert mode == 0 and area == 0.0
+
+
+def test_public_api() -> None:
+    """The package's public names (issue 12): one run, studies, shapes and presets."""
+    import tumblemc
+
+    for name in ("simulate", "summarize", "run_study", "load_config", "open_result", "shapes", "PRESETS", "SHAPES", "Params"):
+        assert name in tumblemc.__all__ and getattr(tumblemc, name) is not None
+    assert callable(tumblemc.shapes.extruded)

@@ -17,6 +17,7 @@ import pytest
 from scipy import stats
 
 from tumblemc.model.params import PRESETS, RANGES, Params
+from tumblemc.model.run import run_inputs
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import StudyConfig, cells, config_hash, config_to_json, load_config
 from tumblemc.study.design import design, params_for_run, run_kwargs
@@ -256,7 +257,8 @@ def test_design_layout() -> None:
         row = ds.isel(run=i)
         PRESETS[str(row["substrate"].item())].replace(**params_for_run(c, row))
         kw = run_kwargs(c, row)
-        assert kw["duration_s"] == c.periods / kw["freq_hz"] and kw["field_mT"] == 20.0
+        assert kw["periods"] == c.periods and kw["field_mT"] == 20.0
+        assert run_inputs(**kw).duration_s == c.periods / kw["freq_hz"]
         assert kw["preset"] == str(row["substrate"].item()) and kw["mu"] == float(row["mu"])
 
 

@@ -130,7 +130,7 @@ def test_sobol_rows_map_config_distributions() -> None:
         assert np.all(np.diff(col[np.argsort(U[:, j])]) >= 0.0)
     row = rows[0]
     assert (row["shape"], row["preset"], row["incline_deg"], row["field_mT"], row["freq_hz"]) == ("cuboid", "aluminum", 30.0, 20.0, 1.0)
-    assert row["duration_s"] == config.duration_s(1.0)
+    assert row["periods"] == config.periods
 
 
 # ----------------------------------------------------------------------- Sobol indices

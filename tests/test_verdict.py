@@ -93,12 +93,3 @@ def test_maps_count_invalid_runs_as_neither(climbing_run: xr.Dataset) -> None:
     m = maps(runs)
     cell = m.sel(shape="cuboid", substrate="paper", incline_deg=0.0)
     assert int(cell["n_valid"]) == 2 and int(cell["n_success"]) == 1 and int(cell["n_failed"]) == 2
-
-
-def test_public_api() -> None:
-    """The package's public names (issue 12): one run, studies, shapes and presets."""
-    import tumblemc
-
-    for name in ("simulate", "summarize", "run_study", "load_config", "open_result", "shapes", "PRESETS", "SHAPES", "Params"):
-        assert name in tumblemc.__all__ and getattr(tumblemc, name) is not None
-    assert callable(tumblemc.shapes.extruded)

@@ -237,10 +237,6 @@ class StudyConfig:
         """Number of runs: cells x samples."""
         return len(cells(self)) * self.samples
 
-    def duration_s(self, freq_hz: float) -> float:
-        """Simulated time of a run at ``freq_hz``, s."""
-        return self.periods / freq_hz
-
 
 @dataclass(frozen=True)
 class _Mode:

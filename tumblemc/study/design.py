@@ -233,13 +233,14 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRo
 def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
     """Every keyword of ``tumblemc.simulate`` for one run.
 
-    :func:`batch_row` plus the shape and the time grid (duration, dt, torque).
+    :func:`batch_row` plus the shape and the time grid (duration in field periods, dt,
+    torque, rotation): the duration in seconds is computed once, by ``run_inputs``.
     """
     b = batch_row(config, row)
     return {
         "shape": str(_scalar(row, "shape")),
         **b,
-        "duration_s": config.duration_s(b["freq_hz"]),
+        "periods": config.periods,
         "dt": config.dt,
         "torque": config.torque,
         "rotation": config.rotation,
