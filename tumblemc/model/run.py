@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -66,26 +67,13 @@ class RunInputs:
     omega0: tuple[float, float, float]
 
 
-@dataclass
-class RunSpec:
-    """Everything the kernel needs for one run (scaled), plus what the API reports."""
+@dataclass(frozen=True)
+class RunSpec(RunInputs):
+    """A run's validated inputs plus the kernel's scaled data: units, ``prm`` and ``state0``."""
 
-    shape: Shape
-    params: Params
-    incline_deg: float
-    field_mT: float
-    freq_hz: float
-    duration_s: float
-    dt: float
-    torque: str
-    rotation: str
     units: Units
     prm: np.ndarray
     state0: np.ndarray
-    n_steps: int
-    record_every: int
-    solver: SolverOptions
-    lift_m: float = 0.0
 
     @property
     def h(self) -> float:
@@ -238,24 +226,8 @@ def prepare(inputs: RunInputs) -> RunSpec:
     state0[3:7] = rot_to_quat(R0)
     state0[7:10] = np.asarray(inputs.v0, dtype=float) / u.velocity
     state0[10:13] = np.asarray(inputs.omega0, dtype=float) * u.time
-    return RunSpec(
-        shape=shp,
-        params=params,
-        incline_deg=inputs.incline_deg,
-        field_mT=inputs.field_mT,
-        freq_hz=inputs.freq_hz,
-        duration_s=inputs.duration_s,
-        dt=inputs.dt,
-        torque=inputs.torque,
-        rotation=inputs.rotation,
-        units=u,
-        prm=prm,
-        state0=state0,
-        n_steps=inputs.n_steps,
-        record_every=inputs.record_every,
-        solver=inputs.solver,
-        lift_m=inputs.lift_m,
-    )
+    fields = {f.name: getattr(inputs, f.name) for f in dataclasses.fields(RunInputs)}
+    return RunSpec(**fields, units=u, prm=prm, state0=state0)
 
 
 def initial_contact(spec: RunSpec) -> tuple[float, bool]:
