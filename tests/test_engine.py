@@ -122,7 +122,7 @@ def test_file_schema(reference: Path) -> None:
             "seed",
         ):
             assert key in ds.attrs, key
-    assert runs["status"].attrs["flag_meanings"] == "ok failed_steps nonfinite error"
+    assert runs["status"].attrs["flag_meanings"] == "ok failed_steps nonfinite error energy_gain"
     assert maps["p_success"].attrs["ancillary_variables"].startswith("p_success_lower")
     # the whole file opens as a tree too
     tree = xr.open_datatree(reference, engine="netcdf4")

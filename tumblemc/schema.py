@@ -51,6 +51,24 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
         "long_name": "steps with a (sub-)step kept, without halving, at a residual between the solver's tol and accept_tol",
     },
     "field": {"units": "T", "long_name": "magnetic flux density B (world frame)"},
+    "work_magnetic": {"units": "J", "long_name": "work of the magnetic torque since the start (h T_m . w+ per step)"},
+    "work_gravity": {"units": "J", "long_name": "work of gravity since the start"},
+    "work_electrostatic": {"units": "J", "long_name": "work of the electrostatic force since the start"},
+    "work_adhesion": {"units": "J", "long_name": "work of the adhesion force since the start"},
+    "work_normal": {"units": "J", "long_name": "work of the normal contact impulses since the start (positive: numerical)"},
+    "work_friction": {"units": "J", "long_name": "work of friction (tangential and torsional) since the start"},
+    "numerical_dissipation": {"units": "J", "long_name": "backward Euler's dissipation 1/2 dV . M dV since the start (impacts included)"},
+    "energy_balance": {
+        "units": "J",
+        "long_name": "kinetic energy gained beyond the work of all forces and the dissipation, since the start",
+    },
+    "energy_gain": {
+        "units": "J",
+        "long_name": "numerical energy gain since the start: per step max(balance + max(normal work, 0), 0)",
+    },
+    "kinetic_energy": {"units": "J", "long_name": "kinetic energy"},
+    "potential_energy": {"units": "J", "long_name": "potential energy of gravity and of the electrostatic force, relative to the start"},
+    "magnetic_energy": {"units": "J", "long_name": "magnetic energy -V_m (R E_b) . B"},
 }
 
 
@@ -131,12 +149,17 @@ OUTCOMES: dict[str, type] = {
     "failed_steps": np.int64,
     "loose_steps": np.int64,
     "max_penetration": np.float64,
+    "energy_gain": np.float64,
+    "energy_gain_ratio": np.float64,
+    "field_work_bound": np.float64,
+    "lateral_drift": np.float64,
+    "heading_change_deg": np.float64,
 }
 
 
 STATUS_FLAGS = {
-    "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR], dtype=np.int8),
-    "flag_meanings": "ok failed_steps nonfinite error",
+    "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR, KB.BATCH_ENERGY_GAIN], dtype=np.int8),
+    "flag_meanings": "ok failed_steps nonfinite error energy_gain",
 }
 
 
@@ -157,6 +180,25 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
     "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol"},
     "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
+    "energy_gain": {
+        "units": "J",
+        "long_name": (
+            "numerical energy gain of the energy ledger: kinetic energy no force supplied plus positive normal work, summed per step"
+        ),
+    },
+    "energy_gain_ratio": {
+        "units": "1",
+        "long_name": (
+            "energy_gain over the run's energy scale (field work bound + initial kinetic energy + m g x 1e-4 m);"
+            " status energy_gain above 0.01"
+        ),
+    },
+    "field_work_bound": {"units": "J", "long_name": "most work the rotating field can do on the magnet in the run: |m||B| (2 + 2 pi f T)"},
+    "lateral_drift": {"units": "m", "long_name": "displacement of the centre of mass along the plane tangent t (world x) over the run"},
+    "heading_change_deg": {
+        "units": "degree",
+        "long_name": "turn of the body x (tumbling) axis about the plane normal over the run, folded to (-90, 90]",
+    },
     "error": {"long_name": "why the run could not start (empty when it ran)"},
 }
 

@@ -7,12 +7,36 @@ of one run, and the Python overhead per run is one row of arrays.
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 
 import numpy as np
 
 from ._jit import jit
-from .layout import P_U, R_FALLBACK, R_LOOSE, R_NIT, R_PEN, R_SUB, R_T, R_X, ST_OK, ST_STOPPED
+from .layout import (
+    ENERGY_GAIN_TOL,
+    L_GAIN,
+    L_KE,
+    P_FIELD_ON,
+    P_FREQ,
+    P_G,
+    P_MASS,
+    P_O,
+    P_T,
+    P_TORQ,
+    P_U,
+    R_FALLBACK,
+    R_LED,
+    R_LOOSE,
+    R_NIT,
+    R_PEN,
+    R_Q,
+    R_SUB,
+    R_T,
+    R_X,
+    ST_OK,
+    ST_STOPPED,
+)
 from .stepper import Clock, Model, Start, run
 
 # ---- summary columns (one row per run) ----------------------------------------------
@@ -25,19 +49,44 @@ OUT_SUB = 5  # extra sub-steps, total
 OUT_FALLBACK = 6  # damped/gradient fallbacks, total
 OUT_PEN = 7  # max penetration (scaled length)
 OUT_LOOSE = 8  # steps kept at a residual between tol and accept_tol, total
-N_OUT = 9
+OUT_EGAIN = 9  # numerical energy gain of the energy ledger (kernels/ledger.py)
+OUT_EREF = 10  # the energy scale of its tolerance (model/energy.py: energy_reference)
+OUT_LATERAL = 11  # lateral drift of the CM along the plane tangent t over the run (scaled length)
+OUT_HEADING = 12  # heading change, degrees (heading_change below)
+N_OUT = 13
 
 # ---- run status (also the engine's ``status`` flag values) -------------------------
 BATCH_OK = 0  # finished, every step converged
 BATCH_FAILED_STEPS = 1  # finished, but some steps did not converge at the smallest sub-step
 BATCH_NONFINITE = 2  # stopped early on a non-finite state
 BATCH_ERROR = 3  # never ran: invalid parameters (set by the Python layer)
+BATCH_ENERGY_GAIN = 4  # finished, every step converged, but the ledger's numerical energy gain is above tolerance
 
 
 Batch = namedtuple("Batch", ["prms", "states0", "hs", "area0", "touch0"])
 Batch.__doc__ = """Runs of one shape on one time grid, one row each: ``prms`` float64[B, N_PRM], ``states0``
 float64[B, 13], ``hs`` float64[B], ``area0`` float64[B], ``touch0`` bool[B] (see
 :func:`run_batch`)."""
+
+
+@jit
+def heading_change(q, iq, prm):  # type: ignore[no-untyped-def]
+    """Heading change (degrees) of the pose ``q[iq:iq+4]``: the angle about the plane normal
+    ``n`` from the plane tangent ``t`` (the start heading of the body x axis, the paper's
+    tumbling axis) to the body x axis projected onto the plane, folded to ``(-90, 90]`` (an
+    axis, not a direction: tumbling over the side flips it)."""
+    w, x, y, z = q[iq], q[iq + 1], q[iq + 2], q[iq + 3]
+    a0 = w * w + x * x - y * y - z * z  # first column of R: body x in the world frame
+    a1 = 2.0 * (x * y + w * z)
+    a2 = 2.0 * (x * z - w * y)
+    at = a0 * prm[P_T] + a1 * prm[P_T + 1] + a2 * prm[P_T + 2]
+    ao = a0 * prm[P_O] + a1 * prm[P_O + 1] + a2 * prm[P_O + 2]
+    psi = math.degrees(math.atan2(ao, at))
+    if psi > 90.0:
+        psi -= 180.0
+    elif psi <= -90.0:
+        psi += 180.0
+    return psi
 
 
 @jit
@@ -108,6 +157,12 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
             sub += rec[r, R_SUB]
             fb += rec[r, R_FALLBACK]
             pen = max(pen, rec[r, R_PEN])
+        # the energy ledger's gain against field work bound + initial KE + m g x length unit
+        t_run = rec[rows - 1, R_T] - rec[0, R_T]
+        eref = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G]
+        if prms[b, P_FIELD_ON] > 0.5:
+            eref += prms[b, P_TORQ] * (2.0 + 2.0 * math.pi * prms[b, P_FREQ] * t_run)
+        gain = rec[rows - 1, R_LED + L_GAIN]
         if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
             code = BATCH_FAILED_STEPS
             prog = np.nan
@@ -115,6 +170,8 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
             code = BATCH_NONFINITE  # the stepper stops otherwise only on a non-finite state
         elif failed > 0:
             code = BATCH_FAILED_STEPS
+        elif gain / eref > ENERGY_GAIN_TOL:
+            code = BATCH_ENERGY_GAIN
         else:
             code = BATCH_OK
         out[b, OUT_STATUS] = code
@@ -126,7 +183,14 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         out[b, OUT_FALLBACK] = fb
         out[b, OUT_PEN] = pen
         out[b, OUT_LOOSE] = loose
+        out[b, OUT_EGAIN] = gain
+        out[b, OUT_EREF] = eref
+        lat = 0.0
+        for i in range(3):
+            lat += prms[b, P_T + i] * (rec[rows - 1, R_X + i] - rec[0, R_X + i])
+        out[b, OUT_LATERAL] = lat
+        out[b, OUT_HEADING] = heading_change(rec[rows - 1], R_Q, prms[b])
     return 0
 
 
-__all__ = ["BATCH_ERROR", "BATCH_FAILED_STEPS", "BATCH_NONFINITE", "BATCH_OK", "N_OUT", "run_batch"]
+__all__ = ["BATCH_ENERGY_GAIN", "BATCH_ERROR", "BATCH_FAILED_STEPS", "BATCH_NONFINITE", "BATCH_OK", "N_OUT", "heading_change", "run_batch"]

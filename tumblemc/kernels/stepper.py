@@ -23,6 +23,8 @@ from .layout import (
     B_LT,
     B_SIG,
     C_PLANE,
+    L_KE,
+    N_LED,
     N_REC,
     N_SC,
     O_ACCEPT,
@@ -50,6 +52,7 @@ from .layout import (
     R_ECP,
     R_FAIL,
     R_FALLBACK,
+    R_LED,
     R_LN,
     R_LOOSE,
     R_MODE,
@@ -71,6 +74,7 @@ from .layout import (
     ST_OK,
     ST_STOPPED,
 )
+from .ledger import N_LW, kinetic_energy, ledger_step
 from .newton import Workspace, make_workspace, solve
 from .residual import Problem, residual
 
@@ -581,8 +585,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     acc_fail = 0
     acc_loose = 0
 
+    led = np.zeros(N_LED)  # the energy ledger (ledger.py), cumulative over the run
+    lw = np.zeros(N_LW)
+    led[L_KE] = kinetic_energy(state, prm, lw)
     row = 0
-    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0))
+    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0), led)
     status = ST_OK
     for step in range(n_steps):
         remaining = h
@@ -596,6 +603,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             _prepare(state, t, hc, prm, area_prev, any_touch, scr)
             # --- free-flight prediction; an explicit pose that clearly penetrates skips it
             flight = False
+            free = False  # solved without contact (for the ledger)
             st6 = ST_NAN
             res6 = 0.0
             quat_step(state, 3, state, 10, hc, qs, 0)
@@ -727,6 +735,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     if code == 1:
                         st = ST_OK
                         res = res6
+                        free = True
                 if st != ST_OK and res_best <= accept_tol:
                     # no strategy reached tol, but the best attempt is within accept_tol:
                     # keep it (a loose step) rather than sub-step. Where the residual
@@ -772,6 +781,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             if status == ST_NAN:
                 break
             quat_step(state, 3, z, 3, hc, qs, 0)
+            ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev, prm, geo.pstart, sc, lw, led)
             for i in range(3):
                 state[i] += hc * z[i]
                 state[7 + i] = z[i]
@@ -807,7 +817,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             _record(
                 rec, row, t, state, z, adh,
                 (mode, area_prev, lnsum, slip, ecp_off),
-                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose),
+                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose), led,
             )  # fmt: skip
             acc_loose = 0
             acc_nit = 0
@@ -820,10 +830,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _record(rec, row, t, state, z, adh, cs, acc):  # type: ignore[no-untyped-def]
+def _record(rec, row, t, state, z, adh, cs, acc, led):  # type: ignore[no-untyped-def]
     """Write record row ``row``: time, state, ECP, applied adhesion ``adh``, the contact
-    summary ``cs = (mode, area, lnsum, slip, ecp_off)`` (:func:`_contact_state`) and the
-    interval's counters ``acc = (nit, res, nfb, nsub, pen, nfail, nloose)``."""
+    summary ``cs = (mode, area, lnsum, slip, ecp_off)`` (:func:`_contact_state`), the
+    interval's counters ``acc = (nit, res, nfb, nsub, pen, nfail, nloose)`` and the
+    energy ledger ``led`` (:mod:`.ledger`)."""
     mode, area, lnsum, slip, ecp_off = cs
     nit, res, nfb, nsub, pen, nfail, nloose = acc
     rec[row, R_T] = t
@@ -846,6 +857,8 @@ def _record(rec, row, t, state, z, adh, cs, acc):  # type: ignore[no-untyped-def
     rec[row, R_PEN] = max(pen, 0.0)
     rec[row, R_FAIL] = nfail
     rec[row, R_LOOSE] = nloose
+    for i in range(N_LED):
+        rec[row, R_LED + i] = led[i]
 
 
 def n_records(n_steps: int, record_every: int) -> int:

@@ -18,25 +18,31 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.batch import BATCH_FAILED_STEPS, BATCH_NONFINITE, BATCH_OK
+from tumblemc.kernels.batch import BATCH_ENERGY_GAIN, BATCH_FAILED_STEPS, BATCH_NONFINITE, BATCH_OK, heading_change
+from tumblemc.model.frames import plane_frame
 from tumblemc.model.params import check_number
 
 
-def run_status(kernel_status: int, failed_steps: int, finite: bool = True) -> int:
+def run_status(kernel_status: int, failed_steps: int, finite: bool = True, energy_gain_ratio: float = 0.0) -> int:
     """Outcome status of a run (:data:`tumblemc.schema.STATUS_FLAGS`).
 
-    Computed from the time loop's status and failed-step count, as the batch kernel
-    computes it.
+    Computed from the time loop's status, failed-step count and the energy ledger's gain
+    (over its energy scale, :func:`tumblemc.model.energy.energy_summary`), as the batch
+    kernel computes it.
 
-    ``ok`` (0): finished, every step converged; ``failed_steps`` (1): some step did not
-    converge at the smallest sub-step (or the run stopped after too many); ``nonfinite``
-    (2): stopped on a non-finite state.
+    ``ok`` (0): finished, every step converged, energy within tolerance; ``failed_steps``
+    (1): some step did not converge at the smallest sub-step (or the run stopped after too
+    many); ``nonfinite`` (2): stopped on a non-finite state; ``energy_gain`` (4): the
+    ledger's numerical energy gain exceeds :data:`~tumblemc.model.energy.ENERGY_GAIN_TOL`
+    of the energy scale (a cause found first, failed steps, wins).
     """
     if kernel_status == L.ST_STOPPED:
         return BATCH_FAILED_STEPS
     if kernel_status != L.ST_OK or not finite:
         return BATCH_NONFINITE
-    return BATCH_FAILED_STEPS if failed_steps > 0 else BATCH_OK
+    if failed_steps > 0:
+        return BATCH_FAILED_STEPS
+    return BATCH_ENERGY_GAIN if energy_gain_ratio > L.ENERGY_GAIN_TOL else BATCH_OK
 
 
 def is_valid(status: ArrayLike) -> np.ndarray:
@@ -66,7 +72,17 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
         ``status`` (:func:`run_status`: 0 ok; 1 failed_steps, a step kept unconverged, so
         the run is not valid and never climbed, its speed and ratio are still reported
-        unless the run stopped early; 2 nonfinite, speed and ratio NaN).
+        unless the run stopped early; 2 nonfinite, speed and ratio NaN; 4 energy_gain, the
+        energy ledger's numerical gain is above tolerance, the run is not valid),
+        ``energy_gain_J``, ``field_work_bound_J``, ``energy_gain_ratio``
+        (:mod:`tumblemc.model.energy`; NaN for runs written before the ledger),
+        ``lateral_drift`` (m) and ``heading_change_deg`` (:func:`drift_and_heading`).
+
+        The progress ratio is measured against the nominal gait, tumbling without slip over
+        the hull's length-height perimeter (``ideal_speed``) whatever the robot does: a
+        ratio above 1 means it travelled uphill faster than that gait, by hopping or
+        sliding forward, or by tumbling over a longer perimeter after turning onto its side
+        in a 3-D run.
     """
     transient_periods = check_number("transient_periods", transient_periods, "", 0.0, 1e6)
     threshold = check_number("threshold", threshold, "", -1e6, 1e6)
@@ -92,7 +108,11 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
     kernel_status = int(ds.attrs.get("kernel_status", ds.attrs["status"]))
     if kernel_status != 0:  # the run stopped early (non-finite state, or too many failed steps)
         mean_speed = ratio = math.nan
-    status = run_status(kernel_status, int(ds.attrs["failed_steps"]), math.isfinite(ratio))
+    gain_ratio = float(ds.attrs.get("energy_gain_ratio", 0.0))  # runs written before the ledger: 0
+    status = run_status(kernel_status, int(ds.attrs["failed_steps"]), math.isfinite(ratio), gain_ratio)
+    lateral = heading = math.nan
+    if "incline_deg" in ds.attrs and "position" in ds and "quaternion" in ds:
+        lateral, heading = drift_and_heading(ds["position"].values, ds["quaternion"].values[-1], float(ds.attrs["incline_deg"]))
     n_steps = max(int(ds.attrs["n_steps"]), 1)
     return {
         "mean_speed": float(mean_speed),
@@ -107,4 +127,25 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         "substeps": int(ds["substeps"].sum()),
         "fallbacks": int(ds["fallbacks"].sum()),
         "status": status,
+        "energy_gain_J": float(ds.attrs.get("energy_gain_J", math.nan)),
+        "field_work_bound_J": float(ds.attrs.get("field_work_bound_J", math.nan)),
+        "energy_gain_ratio": float(ds.attrs.get("energy_gain_ratio", math.nan)),
+        "lateral_drift": lateral,
+        "heading_change_deg": heading,
     }
+
+
+def drift_and_heading(position: np.ndarray, q_end: np.ndarray, incline_deg: float) -> tuple[float, float]:
+    """Lateral drift (m) and heading change (degrees) of a run, as the batch kernel computes them.
+
+    The drift is the centre of mass's displacement along the plane tangent ``t`` (world x,
+    the field's rotation axis); the heading change is the angle about the plane normal from
+    ``t`` (where the body x axis, the tumbling axis, starts) to the body x axis projected
+    onto the plane, folded to ``(-90, 90]`` (:func:`tumblemc.kernels.batch.heading_change`).
+    """
+    fr = plane_frame(incline_deg)
+    prm = np.zeros(L.N_PRM)
+    prm[L.P_T : L.P_T + 3] = fr["t"]
+    prm[L.P_O : L.P_O + 3] = fr["o"]
+    lateral = float((position[-1] - position[0]) @ fr["t"])
+    return lateral, float(heading_change(np.ascontiguousarray(q_end, dtype=np.float64), 0, prm))

@@ -19,6 +19,7 @@ import numpy as np
 from tumblemc.kernels import batch as KB
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import empty_record, make_buffers
+from tumblemc.model.energy import field_work_bound
 from tumblemc.model.outcome import climbed
 from tumblemc.model.params import SolverOptions
 from tumblemc.model.run import RunSpec, initial_contact, prepare, run_inputs
@@ -102,7 +103,18 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
     shp = get_shape(shape)
     nrow = len(rows)
     res: dict[str, np.ndarray] = {k: np.zeros(nrow, dt) for k, dt in OUTCOMES.items()}
-    for k in ("progress_ratio", "mean_speed", "progress", "newton_iterations", "max_penetration"):
+    for k in (
+        "progress_ratio",
+        "mean_speed",
+        "progress",
+        "newton_iterations",
+        "max_penetration",
+        "energy_gain",
+        "energy_gain_ratio",
+        "field_work_bound",
+        "lateral_drift",
+        "heading_change_deg",
+    ):
         res[k][:] = np.nan
     res["status"][:] = KB.BATCH_ERROR
     errors = np.full(nrow, "", dtype=object)
@@ -158,5 +170,10 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
             res["failed_steps"][i] = int(o[KB.OUT_FAILED])
             res["max_penetration"][i] = o[KB.OUT_PEN] * s.units.length
             res["loose_steps"][i] = int(o[KB.OUT_LOOSE])
+            res["energy_gain"][i] = o[KB.OUT_EGAIN] * s.units.energy
+            res["energy_gain_ratio"][i] = o[KB.OUT_EGAIN] / o[KB.OUT_EREF]
+            res["lateral_drift"][i] = o[KB.OUT_LATERAL] * s.units.length
+            res["heading_change_deg"][i] = o[KB.OUT_HEADING]
+            res["field_work_bound"][i] = field_work_bound(s.prm, s.n_steps * s.h) * s.units.energy
     res["error"] = errors
     return res

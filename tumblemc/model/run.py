@@ -14,6 +14,7 @@ from tumblemc.kernels import layout as L
 from tumblemc.kernels.geometry import Geometry
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Buffers, Clock, Model, Start, empty_record, make_buffers, n_records, run
+from tumblemc.model.energy import ENERGY_GAIN_TOL, energy_summary, ledger_variables
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.outcome import run_status
 from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
@@ -296,10 +297,12 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "failed": ("time", rows[:, L.R_FAIL].astype(np.int32)),
             "loose": ("time", rows[:, L.R_LOOSE].astype(np.int32)),
             "field": (xyz, field),
+            **ledger_variables(spec.prm, u, rows, field),
         },
         coords={"time": t, "xyz": ["x", "y", "z"], "quat": ["w", "x", "y", "z"]},
     )
     annotate(ds)
+    energy = energy_summary(spec.prm, u, rows)
     ds.attrs.update(
         {
             "title": f"tumblemc run: {spec.shape.name} robot",
@@ -318,8 +321,10 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "hull_perimeter": spec.shape.hull_perimeter,
             "ideal_speed": spec.shape.hull_perimeter * spec.freq_hz,
             # outcome status (schema.STATUS_FLAGS): a run with a failed step is not "ok"
-            "status": run_status(int(status), int(failed)),
-            "status_meanings": "0 ok, 1 failed_steps, 2 nonfinite",
+            "status": run_status(int(status), int(failed), energy_gain_ratio=energy["energy_gain_ratio"]),
+            "status_meanings": "0 ok, 1 failed_steps, 2 nonfinite, 4 energy_gain",
+            **energy,
+            "energy_gain_tolerance": ENERGY_GAIN_TOL,
             "kernel_status": int(status),
             "failed_steps": int(failed),
             "n_steps": spec.n_steps,

@@ -48,6 +48,11 @@ class Units:
         return self.force * self.length
 
     @property
+    def energy(self) -> float:
+        """Energy unit (weight x length), J."""
+        return self.force * self.length
+
+    @property
     def inertia(self) -> float:
         """Moment of inertia unit, kg m^2."""
         return self.mass * self.length**2

@@ -1,0 +1,180 @@
+"""Energy ledger of one run (MODEL.md, "Energy ledger").
+
+Per committed (sub-)step, with the end-of-step velocities ``V+ = (v+, w+)`` and the step's
+impulses, :func:`ledger_step` adds to the cumulative array ``led`` (columns ``L_*``):
+
+- the work of the magnetic torque ``h T_m . w+`` (``T_m`` as the step used it: at the start
+  of the step, or at the end pose for ``torque="end"``), of gravity, of the electrostatic
+  force and of the adhesion (each its impulse ``. v+``), of the normal contact impulse
+  ``h p_n n . v_c+`` and of friction ``h (p_t t + p_o o) . v_c+ + h p_r n . w+``, with
+  ``v_c+ = v+ + w+ x (a1 - x+)`` the end-of-step velocity of the contact point ``a1``, the
+  lever arm of the residual's Newton-Euler rows;
+- backward Euler's dissipation ``1/2 dV . M dV`` (``M`` at the start pose): with the
+  Newton-Euler rows satisfied and the momentum-form rotation row, kinetic energy changes by
+  exactly the work minus this, up to the pose update's change of the world inertia
+  (``-1/2 w+ . (I+ - I) w+``, zero in planar tumbling);
+- the step's balance ``b = dKE + 1/2 dV . M dV - W`` (``W`` the work of every force): the
+  energy that no force did, which only the rotation row's explicit gyroscopic term (the
+  paper's form), the pose update, or an unconverged solve kept as the step's answer make;
+- the numerical energy gain ``max(b + max(W_n, 0), 0)``: the balance plus any positive
+  work of the normal impulse (a rigid contact cannot push; the position-level contact
+  pushing the body out, or an unconverged impulse, does), counted per step so that
+  dissipation elsewhere cannot hide it.
+
+Units are the kernels' (energy in ``m g x 1e-4 m``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import jit
+from .geometry import QS_Q, cross, quat_to_rot
+from .layout import (
+    B_A1,
+    B_FIXED,
+    B_L,
+    B_LO,
+    B_LR,
+    B_LT,
+    L_BAL,
+    L_DISS,
+    L_GAIN,
+    L_KE,
+    L_WADH,
+    L_WELECT,
+    L_WFRIC,
+    L_WGRAV,
+    L_WMAG,
+    L_WN,
+    P_ADHC,
+    P_EB,
+    P_ELECT_FLIGHT,
+    P_FELECT,
+    P_G,
+    P_IB,
+    P_MASS,
+    P_N,
+    P_O,
+    P_T,
+    P_TORQUE_END,
+    S_BEND,
+    S_TM,
+)
+
+N_LW = 12  # ledger scratch: R (9) and a 3-vector
+
+
+@jit
+def _ke_rot(R, Ib, w):  # type: ignore[no-untyped-def]
+    """``1/2 w . (R Ib R^T) w`` for ``R`` row-major (9) and ``Ib`` at ``prm[P_IB:]``."""
+    b0 = R[0] * w[0] + R[3] * w[1] + R[6] * w[2]
+    b1 = R[1] * w[0] + R[4] * w[1] + R[7] * w[2]
+    b2 = R[2] * w[0] + R[5] * w[1] + R[8] * w[2]
+    acc = 0.0
+    acc += b0 * (Ib[P_IB + 0] * b0 + Ib[P_IB + 1] * b1 + Ib[P_IB + 2] * b2)
+    acc += b1 * (Ib[P_IB + 3] * b0 + Ib[P_IB + 4] * b1 + Ib[P_IB + 5] * b2)
+    acc += b2 * (Ib[P_IB + 6] * b0 + Ib[P_IB + 7] * b1 + Ib[P_IB + 8] * b2)
+    return 0.5 * acc
+
+
+@jit
+def kinetic_energy(state, prm, lw):  # type: ignore[no-untyped-def]
+    """Kinetic energy of ``state`` (``x, Q, v, w``)."""
+    quat_to_rot(state, 3, lw, 0)
+    v2 = state[7] * state[7] + state[8] * state[8] + state[9] * state[9]
+    return 0.5 * prm[P_MASS] * v2 + _ke_rot(lw, prm, state[10:13])
+
+
+@jit
+def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart, sc, lw, led):  # type: ignore[no-untyped-def]
+    """Add one committed (sub-)step of length ``hc`` to ``led`` (columns ``L_*``).
+
+    ``state`` is the start-of-step state (``x, Q, v, w``), ``z`` the step's solution,
+    ``qs`` the :func:`~.geometry.quat_step` block of the end pose (``Q+`` at ``QS_Q``),
+    ``flight`` whether the step was solved without contact (its contact blocks carry no
+    forces), ``touching_prev`` and ``area_prev`` the contact of the previous step (which set
+    this step's electrostatic and adhesion impulses, as in :func:`~.stepper._prepare`),
+    ``sc`` the step data, ``lw`` scratch (``N_LW``).
+    """
+    m = prm[P_MASS]
+    # kinetic energy and dissipation at the start pose
+    quat_to_rot(state, 3, lw, 0)
+    dv2 = 0.0
+    v02 = 0.0
+    for i in range(3):
+        d = z[i] - state[7 + i]
+        dv2 += d * d
+        v02 += state[7 + i] * state[7 + i]
+        lw[9 + i] = z[3 + i] - state[10 + i]
+    diss = 0.5 * m * dv2 + _ke_rot(lw, prm, lw[9:12])
+    ke0 = 0.5 * m * v02 + _ke_rot(lw, prm, state[10:13])
+    # applied forces (impulse . v+)
+    nv = prm[P_N] * z[0] + prm[P_N + 1] * z[1] + prm[P_N + 2] * z[2]
+    w_grav = -hc * m * prm[P_G] * z[2]
+    w_elect = 0.0
+    if touching_prev or prm[P_ELECT_FLIGHT] > 0.5:
+        w_elect = -hc * prm[P_FELECT] * nv
+    w_adh = -hc * prm[P_ADHC] * area_prev * nv
+    # end pose: R+ into lw[0:9]
+    quat_to_rot(qs, QS_Q, lw, 0)
+    if prm[P_TORQUE_END] > 0.5:
+        for i in range(3):
+            lw[9 + i] = lw[3 * i] * prm[P_EB] + lw[3 * i + 1] * prm[P_EB + 1] + lw[3 * i + 2] * prm[P_EB + 2]
+        t0 = lw[10] * sc[S_BEND + 2] - lw[11] * sc[S_BEND + 1]
+        t1 = lw[11] * sc[S_BEND] - lw[9] * sc[S_BEND + 2]
+        t2 = lw[9] * sc[S_BEND + 1] - lw[10] * sc[S_BEND]
+    else:
+        t0 = sc[S_TM]
+        t1 = sc[S_TM + 1]
+        t2 = sc[S_TM + 2]
+    w_mag = hc * (t0 * z[3] + t1 * z[4] + t2 * z[5])
+    v12 = z[0] * z[0] + z[1] * z[1] + z[2] * z[2]
+    ke1 = 0.5 * m * v12 + _ke_rot(lw, prm, z[3:6])
+    # contact impulses at a1, lever r = a1 - x+ (x+ = x + hc v+)
+    w_n = 0.0
+    w_f = 0.0
+    if not flight:
+        off = 6
+        for kp in range(pstart.shape[0] - 1):
+            mk = pstart[kp + 1] - pstart[kp]
+            ln = z[off + B_L + mk + 1]
+            lt = z[off + B_LT]
+            lo = z[off + B_LO]
+            lr = z[off + B_LR]
+            for i in range(3):
+                lw[9 + i] = z[off + B_A1 + i] - state[i] - hc * z[i]
+            # v_c = v+ + w+ x r, written into lw[0:3] (R+ is no longer needed)
+            cross(z, 3, lw, 9, lw, 0)
+            vn = 0.0
+            vt = 0.0
+            vo = 0.0
+            wn = 0.0
+            for i in range(3):
+                vc = z[i] + lw[i]
+                vn += prm[P_N + i] * vc
+                vt += prm[P_T + i] * vc
+                vo += prm[P_O + i] * vc
+                wn += prm[P_N + i] * z[3 + i]
+            w_n += hc * ln * vn
+            w_f += hc * (lt * vt + lo * vo + lr * wn)
+            off += B_FIXED + mk
+    work = w_mag + w_grav + w_elect + w_adh + w_n + w_f
+    bal = ke1 - ke0 + diss - work
+    led[L_WMAG] += w_mag
+    led[L_WGRAV] += w_grav
+    led[L_WELECT] += w_elect
+    led[L_WADH] += w_adh
+    led[L_WN] += w_n
+    led[L_WFRIC] += w_f
+    led[L_DISS] += diss
+    led[L_BAL] += bal
+    led[L_GAIN] += max(bal + max(w_n, 0.0), 0.0)
+    led[L_KE] = ke1
+    if not math.isfinite(bal):
+        led[L_GAIN] = np.inf
+
+
+__all__ = ["N_LW", "kinetic_energy", "ledger_step"]

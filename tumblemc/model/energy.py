@@ -1,0 +1,102 @@
+"""A run's energy ledger in SI units, and the energy check of its outcome status.
+
+The kernels keep the ledger (:mod:`tumblemc.kernels.ledger`, MODEL.md "Energy ledger"):
+per committed step the work of every force over the step actually taken, backward
+Euler's dissipation, and the *numerical energy gain*: kinetic energy that no force
+supplied plus any positive work of the normal impulse, which a rigid contact cannot do.
+This module converts it to the run Dataset's variables and defines the tolerance.
+
+The tolerance (:data:`ENERGY_GAIN_TOL`) is relative to the energy the run can physically
+receive: the field's work bound ``|m||B| (2 + 2 pi f T)`` (MODEL.md; ``|m||B|`` is the
+magnetic torque magnitude ``V_m |E| |B|``, ``T`` the run's duration), plus the initial
+kinetic energy and, so that a run without field has a scale, the weight times the length
+unit (``m g x 1e-4 m``, the paper cuboid's height). A run whose gain exceeds 1% of that
+gets the outcome status ``energy_gain``: the numbers it reports rest on energy the model
+cannot make. Measured (``docs/energy_ledger.md``): converged planar runs gain
+~1e-12 of the bound (round-off); a step kept unconverged at a landing, or the paper's
+explicit gyroscopic rotation row in a 3-D spin, gains 10% to many times the bound.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tumblemc.kernels import layout as L
+from tumblemc.model.frames import quat_to_matrix
+from tumblemc.model.units import Units
+
+#: relative tolerance of the numerical energy gain (see the module docstring)
+ENERGY_GAIN_TOL = L.ENERGY_GAIN_TOL
+
+LEDGER_COLUMNS = {
+    "work_magnetic": L.L_WMAG,
+    "work_gravity": L.L_WGRAV,
+    "work_electrostatic": L.L_WELECT,
+    "work_adhesion": L.L_WADH,
+    "work_normal": L.L_WN,
+    "work_friction": L.L_WFRIC,
+    "numerical_dissipation": L.L_DISS,
+    "energy_balance": L.L_BAL,
+    "energy_gain": L.L_GAIN,
+    "kinetic_energy": L.L_KE,
+}
+
+
+def field_work_bound(prm: np.ndarray, duration: float) -> float:
+    """``|m||B| (2 + 2 pi f T)`` in kernel units.
+
+    The most work a field rotating at ``f`` can do on the magnet in ``T`` (``prm``: the run
+    constants; ``duration`` scaled).
+    """
+    if prm[L.P_FIELD_ON] < 0.5:
+        return 0.0
+    return float(prm[L.P_TORQ] * (2.0 + 2.0 * math.pi * prm[L.P_FREQ] * duration))
+
+
+def energy_reference(prm: np.ndarray, duration: float, ke0: float) -> float:
+    """The energy scale of the tolerance (kernel units).
+
+    The field work bound + the initial kinetic energy + the weight times the length unit.
+    """
+    return (ke0 + prm[L.P_MASS] * prm[L.P_G]) + field_work_bound(prm, duration)  # the batch kernel's order
+
+
+def ledger_variables(prm: np.ndarray, units: Units, rows: np.ndarray, field_T: np.ndarray) -> dict[str, tuple[str, np.ndarray]]:
+    """The ledger's time series (J) for a run Dataset from its record ``rows`` (scaled).
+
+    Also the potential energy of gravity and of the electrostatic force (constant along
+    ``-n``) relative to the start, and the magnetic energy ``-V_m (R E_b) . B``.
+    """
+    e = units.energy
+    out = {name: ("time", rows[:, L.R_LED + col] * e) for name, col in LEDGER_COLUMNS.items()}
+    x = rows[:, L.R_X : L.R_X + 3]
+    n = prm[L.P_N : L.P_N + 3]
+    pe = prm[L.P_MASS] * prm[L.P_G] * (x[:, 2] - x[0, 2]) + prm[L.P_FELECT] * ((x - x[0]) @ n)
+    out["potential_energy"] = ("time", pe * e)
+    m_world = quat_to_matrix(rows[:, L.R_Q : L.R_Q + 4]) @ prm[L.P_EB : L.P_EB + 3]
+    bmag = np.linalg.norm(field_T, axis=-1)
+    bhat = np.divide(field_T, bmag[:, None], out=np.zeros_like(field_T), where=bmag[:, None] > 0)
+    out["magnetic_energy"] = ("time", -prm[L.P_TORQ] * np.einsum("ij,ij->i", m_world, bhat) * e)
+    return out
+
+
+def energy_summary(prm: np.ndarray, units: Units, rows: np.ndarray) -> dict[str, float]:
+    """A run's energy summary from its record ``rows``.
+
+    ``energy_gain_J``, ``field_work_bound_J``, ``energy_reference_J`` and
+    ``energy_gain_ratio`` (gain / reference).
+    """
+    duration = float(rows[-1, L.R_T] - rows[0, L.R_T])
+    gain = float(rows[-1, L.R_LED + L.L_GAIN])
+    ref = energy_reference(prm, duration, float(rows[0, L.R_LED + L.L_KE]))
+    return {
+        "energy_gain_J": gain * units.energy,
+        "field_work_bound_J": field_work_bound(prm, duration) * units.energy,
+        "energy_reference_J": ref * units.energy,
+        "energy_gain_ratio": gain / ref,
+    }
+
+
+__all__ = ["ENERGY_GAIN_TOL", "LEDGER_COLUMNS", "energy_reference", "energy_summary", "field_work_bound", "ledger_variables"]
