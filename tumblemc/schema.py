@@ -67,6 +67,7 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
         "long_name": "numerical energy gain since the start: per step max(balance + max(normal work, 0), 0)",
     },
     "kinetic_energy": {"units": "J", "long_name": "kinetic energy"},
+    "potential_energy_released": {"units": "J", "long_name": "most work gravity and the electrostatic force have done since the start"},
     "potential_energy": {"units": "J", "long_name": "potential energy of gravity and of the electrostatic force, relative to the start"},
     "magnetic_energy": {"units": "J", "long_name": "magnetic energy -V_m (R E_b) . B"},
 }
@@ -189,7 +190,8 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "energy_gain_ratio": {
         "units": "1",
         "long_name": (
-            "energy_gain over the run's energy scale (field work bound + initial kinetic energy + m g x 1e-4 m);"
+            "energy_gain over the run's energy scale (field work bound + initial kinetic energy + potential energy released"
+            " + m g x 1e-4 m);"
             " status energy_gain above 0.01"
         ),
     },

@@ -17,6 +17,7 @@ from .layout import (
     ENERGY_GAIN_TOL,
     L_GAIN,
     L_KE,
+    L_POTMAX,
     P_FIELD_ON,
     P_FREQ,
     P_G,
@@ -157,9 +158,10 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
             sub += rec[r, R_SUB]
             fb += rec[r, R_FALLBACK]
             pen = max(pen, rec[r, R_PEN])
-        # the energy ledger's gain against field work bound + initial KE + m g x length unit
+        # the energy ledger's gain against field work bound + initial KE + potential energy
+        # released + m g x length unit (model/energy.py: energy_reference)
         t_run = rec[rows - 1, R_T] - rec[0, R_T]
-        eref = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G]
+        eref = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G] + rec[rows - 1, R_LED + L_POTMAX]
         if prms[b, P_FIELD_ON] > 0.5:
             eref += prms[b, P_TORQ] * (2.0 + 2.0 * math.pi * prms[b, P_FREQ] * t_run)
         gain = rec[rows - 1, R_LED + L_GAIN]

@@ -99,7 +99,7 @@ R_FAIL = 24  # steps in the interval with a sub-step that did not converge at th
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
 R_LOOSE = 28  # steps in the interval with a (sub-)step kept at a residual between O_TOL and O_ACCEPT
 R_LED = 29  # the energy ledger at the recorded instant (N_LED columns, L_* order)
-N_REC = 39
+N_REC = 40
 
 # ---- ledger columns (cumulative over the run, except L_KE) ---------------------------
 L_WMAG = 0  # work of the magnetic torque
@@ -112,7 +112,9 @@ L_DISS = 6  # backward Euler's dissipation 1/2 dV . M dV
 L_BAL = 7  # balance: kinetic energy gained beyond the work of all forces (+ L_DISS)
 L_GAIN = 8  # numerical energy gain: per step max(balance + max(W_n, 0), 0)
 L_KE = 9  # kinetic energy at the end of the last step (not cumulative)
-N_LED = 10
+L_POTMAX = 10  # the most potential energy released so far: max over steps of L_WGRAV + L_WELECT
+N_LED = 11
 # a run whose numerical energy gain (L_GAIN) exceeds this fraction of its energy scale (field
-# work bound + initial kinetic energy + m g x length unit) is flagged (model/energy.py)
+# work bound + initial kinetic energy + potential energy released + m g x length unit) is
+# flagged (model/energy.py)
 ENERGY_GAIN_TOL = 0.01

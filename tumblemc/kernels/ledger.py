@@ -43,6 +43,7 @@ from .layout import (
     L_DISS,
     L_GAIN,
     L_KE,
+    L_POTMAX,
     L_WADH,
     L_WELECT,
     L_WFRIC,
@@ -173,6 +174,7 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
     led[L_BAL] += bal
     led[L_GAIN] += max(bal + max(w_n, 0.0), 0.0)
     led[L_KE] = ke1
+    led[L_POTMAX] = max(led[L_POTMAX], led[L_WGRAV] + led[L_WELECT])
     if not math.isfinite(bal):
         led[L_GAIN] = np.inf
 
