@@ -49,6 +49,7 @@ LAYERS: dict[str, int] = {
     "tumblemc.convergence": 5,
     "tumblemc.claims": 5,
     "tumblemc.stepcost": 5,
+    "tumblemc.stress": 5,
     "tumblemc.cli": 6,
     "tumblemc.__main__": 6,
     "tumblemc": 6,

@@ -1,4 +1,4 @@
-"""Command line: ``tumblemc simulate | validate | study | shapes | animate | bench``.
+"""Command line: ``tumblemc simulate | validate | stress | study | shapes | animate | bench``.
 
 Also available as ``python -m tumblemc``.
 
@@ -140,6 +140,15 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--out", default="validation", help="output directory (default: validation)")
     v.add_argument("--quick", action="store_true", help="reduced, faster suite")
 
+    what = "run the stress campaign (a wide-range study and 3-D runs) and write its report"
+    sp = sub.add_parser("stress", help=what, description=what[0].upper() + what[1:] + " (issue 13; docs/stress.md).")
+    sp.add_argument("--quick", action="store_true", help="the CI size: studies/stress_quick.toml and 8 3-D runs")
+    sp.add_argument("--config", default=None, help="study TOML (default: studies/stress.toml, or stress_quick.toml with --quick)")
+    sp.add_argument("--result", default=None, help="study result netCDF (default: results/<study name>.nc; resumed if present)")
+    sp.add_argument("--out", default="docs", help="report folder for stress.md and stress.png (default: docs)")
+    sp.add_argument("--n3d", type=int, default=None, help="3-D runs (default: 100, or 8 with --quick)")
+    sp.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores; 0: no dask)")
+
     what = "Monte Carlo robustness studies: run, status, plot"
     st = sub.add_parser("study", help=what, description=what + ".")
     ss = st.add_subparsers(dest="study_command", metavar="ACTION")
@@ -246,9 +255,28 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     print(format_table(summary))
     status = int(ds.attrs.get("status", 0))
     if status != 0:
-        meaning = {1: "a step did not converge", 2: "the state became non-finite"}.get(status, "see status_meanings")
+        meaning = {
+            1: "a step did not converge",
+            2: "the state became non-finite",
+            4: f"the energy ledger's numerical gain is {ds.attrs.get('energy_gain_ratio', float('nan')):.3g} of the run's energy scale",
+        }.get(status, "see status_meanings")
         print(f"warning: the run is not valid (status {status}: {meaning}; failed steps {ds.attrs.get('failed_steps')})", file=sys.stderr)
         return EXIT_RUN_FAILED
+    return EXIT_OK
+
+
+def _cmd_stress(args: argparse.Namespace) -> int:
+    from tumblemc.stress import run_campaign
+
+    config = Path(args.config or ("studies/stress_quick.toml" if args.quick else "studies/stress.toml"))
+    if not config.exists():
+        raise _UsageError(f"--config {config} does not exist (run from the repository root, or give --config)")
+    result = Path(args.result or f"results/{config.stem}.nc")
+    n3d = args.n3d if args.n3d is not None else (8 if args.quick else 100)
+    if n3d < 1:
+        raise _UsageError(f"--n3d={n3d} is not allowed (allowed: an integer >= 1)")
+    path = run_campaign(config, result, args.out, n3d, args.workers, quick=args.quick)
+    print(f"wrote {path}")
     return EXIT_OK
 
 
@@ -394,6 +422,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_simulate(args)
         if args.command == "validate":
             return _cmd_validate(args)
+        if args.command == "stress":
+            return _cmd_stress(args)
         if args.command == "bench":
             return _cmd_bench(rest)
         if args.command == "study":
