@@ -78,11 +78,20 @@ def test_batch_rows_equal_simulate_and_summarize() -> None:
 def test_batch_and_simulate_count_the_same_loose_steps() -> None:
     """The batch kernel and simulate/summarize count the same loose steps.
 
-    The curved robot sliding down 35 deg aluminum has loose steps (SolverOptions.accept_tol).
+    The curved robot sliding down 35 deg aluminum at 0.5 Hz, low friction and adhesion (a run of
+    studies/stress.toml), has loose steps (SolverOptions.accept_tol).
     """
-    row = {"preset": "aluminum", "incline_deg": 35.0, "field_mT": 20.0, "freq_hz": 1.0}
+    row = {
+        "preset": "aluminum",
+        "incline_deg": 35.0,
+        "field_mT": 16.1843,
+        "freq_hz": 0.5,
+        "mu": 0.4739,
+        "adhesion_C": 8.0537,
+        "offset_deg": 23.8541,
+    }
     res = simulate_rows("curved", [row], TimeGrid(periods=2.0, transient_periods=1.0))
-    s = tumblemc.summarize(tumblemc.simulate(shape="curved", duration_s=2.0, **row))
+    s = tumblemc.summarize(tumblemc.simulate(shape="curved", periods=2.0, **row))
     assert res["status"][0] == s["status"] == 0
     assert res["failed_steps"][0] == s["failed_steps"] == 0
     assert res["loose_steps"][0] == s["loose_steps"] > 0

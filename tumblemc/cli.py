@@ -120,8 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--rotation",
         choices=ROTATION_OPTIONS,
-        default="paper",
-        help="rotational row: the paper's explicit form (default) or the momentum form",
+        default="momentum",
+        help="rotational row: the momentum form (default) or the paper's explicit form",
     )
     s.add_argument("--record-every", type=int, default=1, help="record every k-th step (default: 1)")
     s.add_argument(

@@ -38,6 +38,7 @@ from .layout import (
     P_FIELD_ON,
     P_FREQ,
     P_G,
+    P_IB,
     P_LINEFRAC,
     P_MASS,
     P_MU,
@@ -123,12 +124,22 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # pose predicted without it (the edge that lands) and the impact forces of guess 2: a face
 # landing within the step, where the warm start keeps the ECP at the edge the robot pivots
 # about and Newton stalls at a spurious point with a negative multiplier of the other face
-# (found on short steps; see _snap_flat). Then plain, projected or smoothed Newton. The
-# zero-velocity and snap attempts come after every other one, so steps that converge
+# (found on short steps; see _snap_flat). Guess 8: the angular velocity that lays the
+# nearly level lowest edge exactly level at the end of the step, with the ECP in its middle
+# and impact forces: an edge whose second end lands while the first rests on the plane,
+# where the single ECP of a piece must move inside the edge and an impact must stop the roll
+# within the step (every other guess keeps the ECP at one end and Newton stalls; found on
+# 3-D runs, docs/solver_gaps.md; see _snap_edge). Guess 9: the rigid-body impact at the
+# lowest feature (guess 2's ECP): the impulse that stops the contact point, sticking if it
+# lies in the friction cone (else cut to the cone), and the velocities it leaves; a fast
+# frictional landing where the impact reverses the slip, so that every sliding guess pushes
+# friction the wrong way and Newton stalls with sigma < 0 (see _impact_guess). Then plain,
+# projected or smoothed Newton.
+# The zero-velocity and snap attempts come after every other one, so steps that converge
 # without them are unchanged.
-STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True)  # noqa: E501  # fmt: skip
-STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0)  # first mu
+STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4, 8, 8, 9, 9)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True, False, True, False, False)  # noqa: E501  # fmt: skip
+STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2)  # noqa: E501  # fmt: skip
 SNAP_MAX_TILT = 0.05  # guess 4 only turns a face that is within this angle (rad) of flat
 N_ATTEMPTS = len(STRATEGY_GUESS)
 FLIGHT_BEFORE = 6  # a step whose explicit prediction penetrates tries free flight before this attempt
@@ -343,6 +354,202 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     if best <= 0.0 or sn > math.sin(SNAP_MAX_TILT):
         return False
     c = math.asin(sn) / (h * sn) if sn > 0.0 else 0.0
+    out[0] = w[0] + c * a0
+    out[1] = w[1] + c * a1
+    out[2] = w[2] + c * a2
+    return True
+
+
+@jit
+def _impact_guess(z, off, state, h, model, scr):  # type: ignore[no-untyped-def]
+    """Guess 9 for the contact block at ``off`` (its ECP ``a1`` set): the rigid-body impact.
+
+    The impulse ``P`` that brings the contact point's velocity ``v_c = v + w x r`` (start of
+    step, ``r = a1 - (x + h v)``) to rest, ``K P = -v_c`` with ``K = I/m - [r]x I^-1 [r]x``
+    (world inertia at the start pose), cut to the friction cone along its tangential part
+    if it leaves it; ``z`` receives ``v + P/m + h F_ext/m``, ``w + I^-1 (r x P)``, the
+    forces ``P / h`` (the normal one plus the pressing load) and ``sigma = 0``. Returns
+    False (``z`` as it was) when the contact point is not approaching the plane or the
+    impulse does not push."""
+    prm = model.prm
+    sc = scr.sc
+    R = scr.R
+    quat_to_rot(state, 3, R, 0)
+    # Ib^-1 by cofactors, then Iw^-1 = R Ib^-1 R^T (into a local 3x3)
+    b = prm[P_IB : P_IB + 9]
+    c00 = b[4] * b[8] - b[5] * b[7]
+    c01 = b[5] * b[6] - b[3] * b[8]
+    c02 = b[3] * b[7] - b[4] * b[6]
+    det = b[0] * c00 + b[1] * c01 + b[2] * c02
+    if det == 0.0:
+        return False
+    bi = np.empty(9)
+    bi[0] = c00 / det
+    bi[1] = (b[2] * b[7] - b[1] * b[8]) / det
+    bi[2] = (b[1] * b[5] - b[2] * b[4]) / det
+    bi[3] = c01 / det
+    bi[4] = (b[0] * b[8] - b[2] * b[6]) / det
+    bi[5] = (b[2] * b[3] - b[0] * b[5]) / det
+    bi[6] = c02 / det
+    bi[7] = (b[1] * b[6] - b[0] * b[7]) / det
+    bi[8] = (b[0] * b[4] - b[1] * b[3]) / det
+    iw = np.zeros(9)
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for k in range(3):
+                for m in range(3):
+                    acc += R[3 * i + k] * bi[3 * k + m] * R[3 * j + m]
+            iw[3 * i + j] = acc
+    r = np.empty(3)
+    for i in range(3):
+        r[i] = z[off + B_A1 + i] - state[i] - h * state[7 + i]
+    vc = np.empty(3)
+    cross(state, 10, r, 0, vc, 0)
+    vn = 0.0
+    for i in range(3):
+        vc[i] += state[7 + i]
+        vn += prm[P_N + i] * vc[i]
+    if vn >= 0.0:
+        return False
+    # K = I/m + [r]x^T Iw^-1 [r]x, column j from the unit impulse e_j
+    Kmat = np.zeros((3, 3))
+    e = np.zeros(3)
+    tq = np.empty(3)
+    dw = np.empty(3)
+    dv = np.empty(3)
+    for j in range(3):
+        e[:] = 0.0
+        e[j] = 1.0
+        cross(r, 0, e, 0, tq, 0)
+        for i in range(3):
+            dw[i] = iw[3 * i] * tq[0] + iw[3 * i + 1] * tq[1] + iw[3 * i + 2] * tq[2]
+        cross(dw, 0, r, 0, dv, 0)
+        for i in range(3):
+            Kmat[i, j] = dv[i] + (1.0 / prm[P_MASS] if i == j else 0.0)
+    P = np.linalg.solve(Kmat, -vc)
+    pn = prm[P_N] * P[0] + prm[P_N + 1] * P[1] + prm[P_N + 2] * P[2]
+    if not pn > 0.0:
+        return False
+    pt = 0.0
+    for i in range(3):
+        pt += (P[i] - pn * prm[P_N + i]) ** 2
+    pt = math.sqrt(pt)
+    cut = prm[P_MU] * pn / pt if pt > prm[P_MU] * pn else 1.0
+    for i in range(3):
+        P[i] = pn * prm[P_N + i] + cut * (P[i] - pn * prm[P_N + i])
+    cross(r, 0, P, 0, tq, 0)
+    press = 0.0
+    for i in range(3):
+        z[i] = state[7 + i] + P[i] / prm[P_MASS] + h * sc[S_FEXT + i] / prm[P_MASS]
+        z[3 + i] = state[10 + i] + iw[3 * i] * tq[0] + iw[3 * i + 1] * tq[1] + iw[3 * i + 2] * tq[2]
+        press -= prm[P_N + i] * sc[S_FEXT + i]
+    return _impact_forces(z, off, P, pn, press, h, model)
+
+
+@jit
+def _impact_forces(z, off, P, pn, press, h, model):  # type: ignore[no-untyped-def]
+    """Write the impact guess's forces into the contact block at ``off``; returns True."""
+    prm = model.prm
+    geo = model.geo
+    # the block's size: find the piece whose block starts at off
+    o = 6
+    mk = 0
+    for kp in range(geo.pstart.shape[0] - 1):
+        mk = geo.pstart[kp + 1] - geo.pstart[kp]
+        if o == off:
+            break
+        o += B_FIXED + mk
+    z[off + B_L + mk + 1] = pn / h + max(press, 0.0)
+    pt = 0.0
+    po = 0.0
+    for i in range(3):
+        pt += prm[P_T + i] * P[i]
+        po += prm[P_O + i] * P[i]
+    z[off + B_LT] = pt / h
+    z[off + B_LO] = po / h
+    z[off + B_LR] = 0.0
+    z[off + B_SIG] = 0.0
+    return True
+
+
+@jit
+def _snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
+    """Angular velocity for guess 8: ``w`` plus the rotation over ``h`` that turns the line
+    through the two lowest support points (of the piece with the lowest one, at the pose
+    ``x``, ``R`` predicted with ``w``) exactly parallel to the plane. Returns False
+    (``out`` untouched) when that line is already level or tilts by more than
+    ``SNAP_MAX_TILT``."""
+    kbest = -1
+    best = math.inf
+    K = geo.pstart.shape[0] - 1
+    for kp in range(K):
+        for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
+            hgt = 0.0
+            for i in range(3):
+                wi = x[i]
+                for j in range(3):
+                    wi += R[3 * i + j] * geo.sup_pts[p, j]
+                hgt += prm[P_N + i] * wi
+            if hgt < best:
+                best = hgt
+                kbest = kp
+    if kbest < 0:
+        return False
+    # the lowest and second-lowest distinct support points of that piece
+    p0 = -1
+    p1 = -1
+    h0 = math.inf
+    h1 = math.inf
+    for p in range(geo.sup_start[kbest], geo.sup_start[kbest + 1]):
+        hgt = 0.0
+        for i in range(3):
+            wi = x[i]
+            for j in range(3):
+                wi += R[3 * i + j] * geo.sup_pts[p, j]
+            hgt += prm[P_N + i] * wi
+        if hgt < h0:
+            p1 = p0
+            h1 = h0
+            p0 = p
+            h0 = hgt
+        elif hgt < h1:
+            p1 = p
+            h1 = hgt
+    if p1 < 0:
+        return False
+    e0 = 0.0
+    e1 = 0.0
+    e2 = 0.0
+    for j in range(3):
+        d = geo.sup_pts[p1, j] - geo.sup_pts[p0, j]
+        e0 += R[j] * d
+        e1 += R[3 + j] * d
+        e2 += R[6 + j] * d
+    el = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    if el < 1e-9:
+        return False
+    e0 /= el
+    e1 /= el
+    e2 /= el
+    en = e0 * prm[P_N] + e1 * prm[P_N + 1] + e2 * prm[P_N + 2]
+    q0 = e0 - en * prm[P_N]
+    q1 = e1 - en * prm[P_N + 1]
+    q2 = e2 - en * prm[P_N + 2]
+    ql = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    if ql < 1e-12:
+        return False
+    q0 /= ql
+    q1 /= ql
+    q2 /= ql
+    # axis e x (its projection onto the plane), |.| = sin(tilt)
+    a0 = e1 * q2 - e2 * q1
+    a1 = e2 * q0 - e0 * q2
+    a2 = e0 * q1 - e1 * q0
+    sn = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    if sn == 0.0 or sn > math.sin(SNAP_MAX_TILT):
+        return False
+    c = math.asin(sn) / (h * sn)
     out[0] = w[0] + c * a0
     out[1] = w[1] + c * a1
     out[2] = w[2] + c * a2
@@ -682,35 +889,75 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         # fresh contact guess at the predicted end pose (STRATEGY_GUESS)
                         for i in range(n):
                             z[i] = zsave[i]
-                        if guess >= 5:
-                            guess -= 4
-                            for i in range(6):
-                                z[i] = 0.0
-                        quat_step(state, 3, state, 10, hc, qs, 0)
-                        quat_to_rot(qs, QS_Q, R, 0)
-                        if guess == 4:
-                            # the nearly flat face laid flat: pre-impact v, snapped w; the
-                            # ECP at the lowest vertex or edge of the pose predicted without
-                            # the snap, the edge that lands
-                            if not _snap_flat(R, prm, geo, hc, state[10:13], tmp):
+                        if guess == 9:
+                            quat_step(state, 3, state, 10, hc, qs, 0)
+                            quat_to_rot(qs, QS_Q, R, 0)
+                            for i in range(3):
+                                tmp3[i] = state[i] + hc * state[7 + i]
+                            off = 6
+                            kl = -1
+                            low = math.inf
+                            for kp in range(K):
+                                mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                                _landing_guess(z, off, kp, (tmp3, state[7:10], state[10:13]), hc, model, scr, VERTEX_TOL, False)
+                                hk = lowest_point(tmp3, R, prm, geo, kp, tmp, VERTEX_TOL)
+                                if hk < low:
+                                    low = hk
+                                    kl = off
+                                off += B_FIXED + mk
+                            if not _impact_guess(z, kl, state, hc, model, scr):
+                                continue
+                        elif guess == 8:
+                            # the nearly level edge laid level: pre-impact v, snapped w, the
+                            # ECP in the middle of the edge at the snapped pose
+                            quat_step(state, 3, state, 10, hc, qs, 0)
+                            quat_to_rot(qs, QS_Q, R, 0)
+                            for i in range(3):
+                                tmp3[i] = state[i] + hc * state[7 + i]
+                            if not _snap_edge(tmp3, R, prm, geo, hc, state[10:13], tmp):
                                 continue
                             for i in range(3):
                                 z[i] = state[7 + i]
                                 z[3 + i] = tmp[i]
-                        for i in range(3):
-                            tmp3[i] = state[i] + hc * state[7 + i]
-                        off = 6
-                        for kp in range(K):
-                            mk = geo.pstart[kp + 1] - geo.pstart[kp]
-                            tolg = VERTEX_TOL if guess == 2 or guess == 4 else (RESTART_TOL if guess == 1 else FACE_TOL)
-                            w_guess = z[3:6] if guess == 4 else state[10:13]
-                            _landing_guess(z, off, kp, (tmp3, state[7:10], w_guess), hc, model, scr, tolg, guess == 1 and touching[kp] == 1)
-                            off += B_FIXED + mk
+                            quat_step(state, 3, z, 3, hc, qs, 0)
+                            quat_to_rot(qs, QS_Q, R, 0)
+                            off = 6
+                            for kp in range(K):
+                                mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                                _landing_guess(z, off, kp, (tmp3, state[7:10], state[10:13]), hc, model, scr, LOW_TOL, False)
+                                off += B_FIXED + mk
+                        else:
+                            if guess >= 5:
+                                guess -= 4
+                                for i in range(6):
+                                    z[i] = 0.0
+                            quat_step(state, 3, state, 10, hc, qs, 0)
+                            quat_to_rot(qs, QS_Q, R, 0)
+                            if guess == 4:
+                                # the nearly flat face laid flat: pre-impact v, snapped w; the
+                                # ECP at the lowest vertex or edge of the pose predicted without
+                                # the snap, the edge that lands
+                                if not _snap_flat(R, prm, geo, hc, state[10:13], tmp):
+                                    continue
+                                for i in range(3):
+                                    z[i] = state[7 + i]
+                                    z[3 + i] = tmp[i]
+                            for i in range(3):
+                                tmp3[i] = state[i] + hc * state[7 + i]
+                            off = 6
+                            for kp in range(K):
+                                mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                                tolg = VERTEX_TOL if guess == 2 or guess == 4 else (RESTART_TOL if guess == 1 else FACE_TOL)
+                                w_guess = z[3:6] if guess == 4 else state[10:13]
+                                _landing_guess(
+                                    z, off, kp, (tmp3, state[7:10], w_guess), hc, model, scr, tolg, guess == 1 and touching[kp] == 1
+                                )
+                                off += B_FIXED + mk
                     smooth = STRATEGY_SMOOTH[attempt]
                     if smooth > 0.0:
                         opts_use = opts_smooth
-                    elif depth > 0 or guess == 4:
-                        opts_use = opts  # the snap can need more than FAST_MAXIT iterations
+                    elif depth > 0 or guess >= 8 or guess == 4:
+                        opts_use = opts  # the snaps can need more than FAST_MAXIT iterations
                     else:
                         opts_use = opts_fast
                     st, res = solve(z, prob, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)

@@ -70,7 +70,7 @@ class TimeGrid:
     transient_periods: float = 1.0
     dt: float | None = None
     torque: str = "start"
-    rotation: str = "paper"
+    rotation: str = "momentum"
     success_ratio: float = 0.5
     max_failed_steps: int = 0  # 0: never stop a run early (as simulate); studies use 1
 

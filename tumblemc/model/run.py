@@ -32,10 +32,11 @@ DEFAULT_DT = 5e-5
 
 
 TORQUE_OPTIONS: tuple[str, ...] = ("start", "end")
-#: the rotational row (MODEL.md, discrete model): "paper", the paper's I+ (w+ - w)/h + w x (I+ w)
-#: (forward Euler on Euler's equations; still the default, see README "Departures"), or
-#: "momentum", (I+ w+ - I w)/h, which keeps a free body's angular momentum
-ROTATION_OPTIONS: tuple[str, ...] = ("paper", "momentum")
+#: the rotational row (MODEL.md, discrete model): "momentum" (the default), (I+ w+ - I w)/h,
+#: which keeps a free body's angular momentum, or "paper", the paper's I+ (w+ - w)/h + w x (I+ w)
+#: (forward Euler on Euler's equations: it makes energy in a spin off a principal axis)
+ROTATION_OPTIONS: tuple[str, ...] = ("momentum", "paper")
+DEFAULT_ROTATION = "momentum"
 
 
 MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
@@ -117,7 +118,7 @@ def run_inputs(
     *,
     periods: float | None = None,
     torque: str = "start",
-    rotation: str = "paper",
+    rotation: str = DEFAULT_ROTATION,
     record_every: int = 1,
     solver: SolverOptions | None = None,
     lift_m: float = 0.0,
@@ -346,7 +347,7 @@ def simulate(
     *,
     periods: float | None = None,
     torque: str = "start",
-    rotation: str = "paper",
+    rotation: str = DEFAULT_ROTATION,
     record_every: int = 1,
     solver: SolverOptions | None = None,
     lift_m: float = 0.0,
@@ -372,12 +373,12 @@ def simulate(
         Simulated time in field periods instead of ``duration_s`` (``periods / freq_hz``).
     dt : float, optional
         Time step, s; ``None`` takes :data:`DEFAULT_DT` (set by the convergence study).
-    rotation : {"paper", "momentum"}
-        The rotational row of the discrete model: ``"paper"`` (default), the paper's
-        explicit gyroscopic form, which gains energy in a spin off a principal axis, or
-        ``"momentum"``, which keeps a free body's angular momentum and never makes energy
-        (MODEL.md, "The discrete model"; not yet the default: README, "Departures").
-        Planar motion is the same in both to rounding.
+    rotation : {"momentum", "paper"}
+        The rotational row of the discrete model: ``"momentum"`` (default), which keeps a
+        free body's angular momentum and never makes energy (MODEL.md, "The discrete
+        model"), or ``"paper"``, the paper's explicit gyroscopic form, which gains energy in
+        a spin off a principal axis (the energy ledger flags such runs). Planar motion is
+        the same in both to rounding.
     torque : {"start", "end"}
         Where in the step the magnetic torque is evaluated: ``"start"`` (default, accurate)
         or ``"end"`` (the paper's choice; numerically damped, see MODEL.md "Numerics").

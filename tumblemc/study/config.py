@@ -36,7 +36,7 @@ transient_periods    periods discarded before measuring (default 1); at least on
                      must remain (``transient_periods <= periods - 1``)
 dt                   time step, s (default: the simulator's ``DEFAULT_DT``)
 torque               ``"start"`` (default) or ``"end"``
-rotation             ``"paper"`` (default) or ``"momentum"`` (the rotational row, MODEL.md)
+rotation             ``"momentum"`` (default) or ``"paper"`` (the rotational row, MODEL.md)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
 samples*             runs per cell, integer >= 1
 sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
@@ -213,7 +213,7 @@ class StudyConfig:
     transient_periods: float = 1.0
     dt: float | None = None
     torque: str = "start"
-    rotation: str = "paper"
+    rotation: str = "momentum"
     success_ratio: float = 0.5
     sampler: str = "mc"
     ci: str = "wilson"
@@ -390,7 +390,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
         )
     dt = None if d.get("dt") is None else check_num("dt", d["dt"], RANGES["dt"].lo, RANGES["dt"].hi)
     torque = check_choice("torque", d.get("torque", "start"), TORQUES)
-    rotation = check_choice("rotation", d.get("rotation", "paper"), ROTATIONS)
+    rotation = check_choice("rotation", d.get("rotation", "momentum"), ROTATIONS)
     success_ratio = check_num("success_ratio", d.get("success_ratio", 0.5), 0.0, 1.0, lo_open=True)
     samples = check_int("samples", req("samples", f"an integer in [1, {MAX_SAMPLES}]"), 1, MAX_SAMPLES)
     sampler = check_choice("sampler", d.get("sampler", "mc"), SAMPLERS)
@@ -459,7 +459,9 @@ def cells(config: StudyConfig) -> list[dict[str, Any]]:
 
 #: keys added to the schema after studies were written, with the value every earlier study
 #: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
-#: config hash (its results and shards stay valid)
+#: config hash (its results and shards stay valid). ``rotation`` became "momentum" by default
+#: later: a config that omits it now hashes with "momentum" written out, so the shards of an
+#: earlier (paper-form) run of it are refused as a changed config rather than mixed in
 ADDED_KEYS: dict[str, object] = {"rotation": "paper"}
 
 
