@@ -23,7 +23,8 @@ import tumblemc
 from tumblemc.io import StudyStateError, open_result, parts_dir
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.schema import TIMESTAMP_ATTRS
-from tumblemc.study.config import load_config
+from tumblemc.study.checks import ConfigError
+from tumblemc.study.config import config_hash, config_to_json, load_config
 from tumblemc.study.engine import run_study, study_status
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -408,3 +409,51 @@ def test_batch_row_with_lift_equals_simulate() -> None:
     s = tumblemc.summarize(tumblemc.simulate(duration_s=0.2, **row))
     assert res["status"][0] == s["status"] == 0
     assert res["progress_ratio"][0] == pytest.approx(s["progress_ratio"], rel=1e-12, abs=1e-12)
+
+
+def test_dt_check_compares_ratios_against_the_tolerance(reference: Path, tmp_path: Path) -> None:
+    """The dt check compares numbers (issue 13, item 4).
+
+    Per check run the ratio difference and a within-tolerance flag, the share in the maps,
+    and the words of study status; the tolerance is a config key.
+    """
+    runs, maps = open_result(reference)
+    diff = runs["check_ratio_diff"].values
+    sel = runs["check_run"].values
+    np.testing.assert_array_equal(diff, runs["check_progress_ratio_fine"].values - runs["progress_ratio"].values[sel])
+    flag = runs["check_ratio_within_tol"].values
+    tol = 0.05 + 0.1 * np.abs(runs["check_progress_ratio_fine"].values)
+    valid = (runs["status"].values[sel] == 0) & (runs["check_status_fine"].values == 0)
+    np.testing.assert_array_equal(flag, np.where(valid, np.abs(diff) <= tol, -1))
+    share = maps["check_within_tol_share"].values
+    assert np.nansum(maps["n_check_compared"].values) == np.count_nonzero(flag >= 0)
+    assert np.nanmin(share) >= 0.0 and np.nanmax(share) <= 1.0
+    assert study_status(reference)["dt_check"].startswith("dt converged in ")
+    # a zero tolerance flags every checked run whose ratios differ at all, and says so
+    strict = tmp_path / "strict.nc"
+    run_study(
+        tiny(check={"fraction": 0.02, "min_runs": 2, "dt_factor": 2, "ratio_abs_tol": 0.0, "ratio_rel_tol": 0.0}),
+        out=strict,
+        progress=False,
+    )
+    r2, _ = open_result(strict)
+    differ = np.abs(r2["check_ratio_diff"].values) > 0
+    np.testing.assert_array_equal(r2["check_ratio_within_tol"].values == 0, differ & (r2["check_ratio_within_tol"].values >= 0))
+    if differ.any():
+        assert "runs differ" in study_status(strict)["dt_check"]
+    assert r2.attrs["config_hash"] != runs.attrs["config_hash"]  # the tolerance is part of the study
+
+
+def test_config_hash_leaves_out_added_keys_at_their_default() -> None:
+    """Keys added after studies were written keep older hashes.
+
+    The check tolerances at their defaults and rotation = "paper" (the value older studies
+    implied) are left out.
+    """
+    base = load_config(tiny(rotation="paper"))
+    same = load_config(tiny(rotation="paper", check={"fraction": 0.02, "min_runs": 2, "dt_factor": 2, "ratio_abs_tol": 0.05}))
+    assert config_hash(base) == config_hash(same)
+    assert '"rotation"' not in config_to_json(base) and "ratio_abs_tol" not in config_to_json(base)
+    assert '"rotation":"momentum"' in config_to_json(load_config(tiny()))  # the new default is written out
+    with pytest.raises(ConfigError, match="check.ratio_rel_tol"):
+        load_config(tiny(check={"ratio_rel_tol": -1.0}))

@@ -302,6 +302,11 @@ def _cmd_study(args: argparse.Namespace) -> int:
         out_dir = Path(args.out) if args.out else result.with_name(result.stem + "_plots")
         for path in plot_study(runs, maps, out_dir):
             print(f"wrote {path}")
+        from tumblemc.analysis.maps import check_words
+
+        words = check_words(runs, str(result))
+        if words:
+            print(words)
         return EXIT_OK
     if args.study_command == "compare":
         from tumblemc.analysis.critical import compare_with_grid

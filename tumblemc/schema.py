@@ -134,6 +134,12 @@ MAP_VARIABLES: dict[str, dict[str, str]] = {
     "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs"},
     "progress_ratio_quantile": {"units": "1", "long_name": "quantiles of the progress ratio over valid runs"},
     "mean_speed_mean": {"units": "m s-1", "long_name": "mean uphill speed over valid runs"},
+    "check_within_tol_share": {
+        "units": "1",
+        "long_name": "share of the cell's dt-check runs whose progress ratios at dt and dt / check_dt_factor agree within tolerance",
+        "ancillary_variables": "n_check_compared",
+    },
+    "n_check_compared": {"units": "1", "long_name": "dt-check runs of the cell valid at both time steps"},
 }
 
 
@@ -276,6 +282,16 @@ GRID_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
     "check_agree": {
         "units": "1",
         "long_name": "verdict at the study dt equals the verdict at the finer dt (compared only where both runs are valid)",
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+        "flag_meanings": "not_compared no yes",
+    },
+    "check_ratio_diff": {"units": "1", "long_name": "progress ratio at dt / check_dt_factor minus progress ratio at dt"},
+    "check_ratio_within_tol": {
+        "units": "1",
+        "long_name": (
+            "|check_ratio_diff| <= check_ratio_abs_tol + check_ratio_rel_tol * |fine ratio| (attributes of the group;"
+            " compared only where both runs are valid)"
+        ),
         "flag_values": np.array([-1, 0, 1], dtype=np.int8),
         "flag_meanings": "not_compared no yes",
     },

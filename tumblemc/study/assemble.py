@@ -104,7 +104,19 @@ def assemble_runs(
         agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
         runs["check_agree"].attrs.update(GRID_CHECK_VARIABLES["check_agree"])
-        d = np.abs(fine_ratio - runs["progress_ratio"].values[check_idx])
+        diff = fine_ratio - runs["progress_ratio"].values[check_idx]
+        d = np.abs(diff)
+        tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(fine_ratio)
+        with np.errstate(invalid="ignore"):
+            within = np.where(compared, (d <= tol).astype(np.int8), -1).astype(np.int8)
+        runs["check_ratio_diff"] = ("check", diff)
+        runs["check_ratio_diff"].attrs.update(GRID_CHECK_VARIABLES["check_ratio_diff"])
+        runs["check_ratio_within_tol"] = ("check", within)
+        runs["check_ratio_within_tol"].attrs.update(GRID_CHECK_VARIABLES["check_ratio_within_tol"])
+        runs.attrs["check_ratio_abs_tol"] = cfg.check.ratio_abs_tol
+        runs.attrs["check_ratio_rel_tol"] = cfg.check.ratio_rel_tol
+        runs.attrs["check_within_tol_rate"] = float((within[compared] == 1).mean()) if compared.any() else math.nan
+        runs.attrs["check_n_outside_tol"] = int(np.count_nonzero(within == 0))
         runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
         runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
         runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan

@@ -44,7 +44,9 @@ seed*                root seed, integer >= 0
 ci                   ``"wilson"`` (default) or ``"clopper-pearson"``
 ci_level             confidence level of the intervals (default 0.95)
 [check]              numerical-error subset re-simulated at ``dt / dt_factor``:
-                     ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4)
+                     ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4); the two
+                     progress ratios of a checked run agree when they differ by at most
+                     ``ratio_abs_tol + ratio_rel_tol * |fine ratio|`` (0.05, 0.1)
 [execution]          how to run, not what: ``batch_size`` (8), ``max_in_flight``,
                      ``workers``; excluded from :func:`config_hash`
 [uncertain.<param>]  one table per uncertain parameter (below)
@@ -97,10 +99,6 @@ Example::
     [uncertain.mu]
     dist = "truncnormal"
     rel_sd = 0.15
-
-    [uncertain.adhesion_C]
-    dist = "lognormal"
-    cv = 0.3
 
 Every problem is one :class:`ConfigError` naming the key path (``uncertain.mu.rel_sd``),
 the value and what is allowed; unknown keys are errors with a did-you-mean.
@@ -173,11 +171,16 @@ MAX_SAMPLES = 1_000_000
 
 @dataclass(frozen=True)
 class CheckConfig:
-    """Numerical-error check: ``max(min_runs, ceil(fraction * runs))`` runs (at most all) are re-simulated at ``dt / dt_factor``."""
+    """Numerical-error check: ``max(min_runs, ceil(fraction * runs))`` runs (at most all) are re-simulated at ``dt / dt_factor``.
+
+    Their ratios agree when ``|fine - coarse| <= ratio_abs_tol + ratio_rel_tol |fine|``.
+    """
 
     fraction: float = 0.02
     min_runs: int = 20
     dt_factor: int = 4
+    ratio_abs_tol: float = 0.05
+    ratio_rel_tol: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -399,11 +402,13 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
     ci_level = check_num("ci_level", d.get("ci_level", 0.95), 0.5, 1.0, hi_open=True)
 
     ct = check_table("check", d.get("check", {}))
-    check_no_unknown(ct, ("fraction", "min_runs", "dt_factor"), "check")
+    check_no_unknown(ct, ("fraction", "min_runs", "dt_factor", "ratio_abs_tol", "ratio_rel_tol"), "check")
     check = CheckConfig(
         fraction=check_num("check.fraction", ct.get("fraction", 0.02), 0.0, 1.0),
         min_runs=check_int("check.min_runs", ct.get("min_runs", 20), 0, 10**9),
         dt_factor=check_int("check.dt_factor", ct.get("dt_factor", 4), 2, 64),
+        ratio_abs_tol=check_num("check.ratio_abs_tol", ct.get("ratio_abs_tol", 0.05), 0.0, 1e6),
+        ratio_rel_tol=check_num("check.ratio_rel_tol", ct.get("ratio_rel_tol", 0.1), 0.0, 10.0),
     )
     et = check_table("execution", d.get("execution", {}))
     check_no_unknown(et, ("batch_size", "max_in_flight", "workers"), "execution")
@@ -459,10 +464,9 @@ def cells(config: StudyConfig) -> list[dict[str, Any]]:
 
 #: keys added to the schema after studies were written, with the value every earlier study
 #: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
-#: config hash (its results and shards stay valid). ``rotation`` became "momentum" by default
-#: later: a config that omits it now hashes with "momentum" written out, so the shards of an
-#: earlier (paper-form) run of it are refused as a changed config rather than mixed in
-ADDED_KEYS: dict[str, object] = {"rotation": "paper"}
+#: config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
+#: with it written out, so an earlier paper-form run's shards are refused, not mixed in
+ADDED_KEYS: dict[str, object] = {"rotation": "paper", "check.ratio_abs_tol": 0.05, "check.ratio_rel_tol": 0.1}
 
 
 def config_to_json(config: StudyConfig) -> str:
@@ -479,8 +483,12 @@ def config_to_json(config: StudyConfig) -> str:
     if config.mode == "grid":  # keys only the critical-incline mode takes
         del d["incline_range"], d["incline_tol"]
     for key, default in ADDED_KEYS.items():  # keys added later: only when not at their default
-        if d[key] == default:
-            del d[key]
+        *parents, leaf = key.split(".")
+        table = d
+        for p in parents:
+            table = table[p]
+        if table[leaf] == default:
+            del table[leaf]
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 

@@ -39,6 +39,7 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.critical import expand_to_grid
+from tumblemc.analysis.maps import check_words
 from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
@@ -421,6 +422,9 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
             out[k] = runs.attrs[k]
     if "check_run" in runs:
         out["check_total"] = out["check_done"] = int(runs.sizes["check"])
+    words = check_words(runs, str(path))
+    if words:
+        out["dt_check"] = words
     return out
 
 

@@ -26,7 +26,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from tumblemc.analysis.maps import check_summary, sort_runs
+from tumblemc.analysis.maps import check_summary, check_words, sort_runs
 from tumblemc.schema import SWEEP_DIMS
 from tumblemc.viz.style import CMAP, GOLDEN, SWEEP_LABELS, panel_grid, save_figure
 
@@ -268,6 +268,9 @@ def _check_note(runs: xr.Dataset) -> str | None:
         parts.append(f"climbed verdict agrees in {sm['agreement_rate']:.1%}")
     if sm["median_abs_delta_ratio"] is not None:
         parts.append(f"|delta progress ratio| median {sm['median_abs_delta_ratio']:.3g}, max {sm['max_abs_delta_ratio']:.3g}")
+    words = check_words(runs, worst=1)
+    if words:
+        parts.append(words.split("; all in")[0])
     return "; ".join(parts)
 
 
