@@ -224,7 +224,7 @@ def test_contact_state_classification() -> None:
     from tumblemc.model.run import prepare, run_inputs
     from tumblemc.model.shapes.library import cuboid
 
-    spec = prepare(run_inputs(duration_s=0.001, line_contact_fraction=0.1))
+    spec = prepare(run_inputs(duration_s=0.001, line_contact_fraction=0.1, line_adhesion="face_fraction"))
     geo, prm = spec.geo, spec.prm
     shp = cuboid()
     areas = np.array([c.area for c in shp.pieces[0].constraints]) / 1e-8  # scaled
@@ -241,6 +241,14 @@ def test_contact_state_classification() -> None:
     z[16 + 2] = 0.7  # +y end too: an edge, line contact with fraction x smaller area
     mode, area, *_ = _contact_state(z, state, prm, geo, scr)
     assert mode == 1 and area == pytest.approx(0.1 * min(areas[4], areas[2]))
+    # the strip rule (default): 5 um x the 400 um edge the two faces share, scaled by 1e-8 m^2
+    strip = prepare(run_inputs(duration_s=0.001))
+    mode, area, *_ = _contact_state(z, state, strip.prm, strip.geo, scr)
+    assert mode == 1 and area == pytest.approx(5e-6 * 400e-6 / 1e-8, rel=1e-12)
+    z[16 + 0] = 0.5  # +x side too: a vertex, w^2
+    mode, area, *_ = _contact_state(z, state, strip.prm, strip.geo, scr)
+    assert mode == 1 and area == pytest.approx((5e-6) ** 2 / 1e-8, rel=1e-12)
+    z[16 + 0] = 0.0
     z[23] = 0.0  # no normal force: no contact
     mode, area, *_ = _contact_state(z, state, prm, geo, scr)
     assert mode == 0 and area == 0.0

@@ -117,11 +117,11 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         _robust(rep, f"aluminum {th} deg", s, wall)
 
     # sensitivity of the aluminum 30 deg verdict
-    for frac in (0.05, 0.25, 0.5, 1.0):
-        _, s, _ = timed_run(preset="aluminum", incline_deg=30.0, line_contact_fraction=frac)
+    for width in (2.5e-6, 5e-6, 1e-5, 2.5e-5):
+        _, s, _ = timed_run(preset="aluminum", incline_deg=30.0, line_contact_width=width)
         rep.add(
             "S1",
-            f"aluminum, 30 deg, line_contact_fraction={frac}",
+            f"aluminum, 30 deg, line_contact_width={width:g} m",
             "progress ratio",
             f"{s['progress_ratio']:.3f}",
             "(sensitivity)",
@@ -290,28 +290,47 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     fig.savefig(figdir / "shape_speeds.png", dpi=120)
 
     mismatched = []
-    for th, want in SHAPE_CLIMBS.items():
-        for shape in SHAPE_ORDER:
-            _, s, wall = timed_run(shape=shape, preset="aluminum", incline_deg=float(th))
-            ok = s["climbed"] == want[shape]
-            rep.add(
-                "C7",
-                f"{shape}, aluminum, {th} deg, 20 mT, 1 Hz",
-                "progress ratio (climbed if >= 0.5)",
-                f"{s['progress_ratio']:.3f}",
-                "climbs" if want[shape] else "fails",
-                "pass" if ok else "FAIL",
-            )
-            _robust(rep, f"{shape} aluminum {th} deg", s, wall)
-            if not ok:
-                mismatched.append((shape, th))
+    # both line-adhesion rules side by side (MODEL.md, "Forces"; issue 13, item 5): the strip
+    # rule (default) and the authors' cuboid rule applied to every shape ("face_fraction")
+    for rule, cid in (("strip", "C7"), ("face_fraction", "C7f")):
+        for th, want in SHAPE_CLIMBS.items():
+            for shape in SHAPE_ORDER:
+                _, s, wall = timed_run(shape=shape, preset="aluminum", incline_deg=float(th), line_adhesion=rule)
+                ok = s["climbed"] == want[shape]
+                rep.add(
+                    cid,
+                    f"{shape}, aluminum, {th} deg, 20 mT, 1 Hz, line_adhesion={rule}",
+                    "progress ratio (climbed if >= 0.5)",
+                    f"{s['progress_ratio']:.3f}",
+                    "climbs" if want[shape] else "fails",
+                    "pass" if ok else "FAIL",
+                )
+                if rule == "strip":
+                    _robust(rep, f"{shape} aluminum {th} deg", s, wall)
+                    if not ok:
+                        mismatched.append((shape, th))
+    ff_speeds = {
+        k: timed_run(periods=periods, shape=k, preset="aluminum", incline_deg=0.0, freq_hz=10.0, line_adhesion="face_fraction")[1][
+            "mean_speed"
+        ]
+        for k in SHAPE_ORDER
+    }
+    order = sorted(SHAPE_ORDER, key=lambda k: -ff_speeds[k])
+    rep.add(
+        "C6f",
+        "shapes, flat aluminum, 20 mT, 10 Hz, line_adhesion=face_fraction",
+        "order of mean speed, fastest first",
+        " > ".join(order),
+        "curved fastest, cuboid slowest",
+        "pass" if order[0] == "curved" and order[-1] == "cuboid" else "FAIL",
+    )
     # what decides a verdict that differs: the adhesion of line contact (MODEL.md), and friction
     for shape, th in mismatched[: 2 if quick else None]:
-        for frac in (0.0, 0.25):
-            _, s, _ = timed_run(shape=shape, preset="aluminum", incline_deg=float(th), line_contact_fraction=frac)
+        for width in (0.0, 25e-6):
+            _, s, _ = timed_run(shape=shape, preset="aluminum", incline_deg=float(th), line_contact_width=width)
             rep.add(
                 "S3",
-                f"{shape}, aluminum, {th} deg, line_contact_fraction={frac}",
+                f"{shape}, aluminum, {th} deg, line_contact_width={width:g} m",
                 "progress ratio",
                 f"{s['progress_ratio']:.3f}",
                 "(sensitivity)",

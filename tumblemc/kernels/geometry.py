@@ -20,12 +20,15 @@ from collections import namedtuple
 from ._jit import jit
 from .layout import C_CYL_X, C_PLANE
 
-Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad"])
+Geometry = namedtuple("Geometry", ["ctype", "cdata", "carea", "cline", "pstart", "sup_pts", "sup_start", "sup_pad", "cllen", "cedge"])
 Geometry.__doc__ = """Robot geometry in scaled body coordinates, as kernel arrays.
 
 ctype, cdata : int64[M], float64[M, 4]   convex constraints (see ``constraint_eval``)
 carea : float64[M]   adhering area when that constraint alone touches the plane
 cline : int64[M]     1 if that constraint alone touching the plane is line contact
+cllen : float64[M]   length of the touching segment(s) when that line constraint alone touches
+cedge : float64[M, M]  length of the straight edge where two constraints of a piece meet (0: a
+    point, a curved edge, or they do not meet); the strip rule of line adhesion (MODEL.md)
 pstart : int64[K+1]  piece k owns constraints pstart[k]:pstart[k+1]
 sup_pts : float64[P, 3], sup_start : int64[K+1], sup_pad : float64[K]
     points whose lowest one, minus the pad, bounds the piece from below in any direction

@@ -35,7 +35,9 @@ P_EB = 25  # unit magnetisation direction in the body frame (3)
 P_IB = 28  # body inertia about the CM, 3x3 row-major (9)
 P_FIELD_ON = 37  # 1: field on, 0: off
 P_ROT_PAPER = 38  # 1: the paper's rotation row I+ (w+ - w)/h + w x (I+ w); 0: momentum form (I+ w+ - I w)/h
-N_PRM = 39
+P_LINE_STRIP = 39  # 1: line/point contact adheres over a strip of width P_LINEW (MODEL.md); 0: P_LINEFRAC x face area
+P_LINEW = 40  # line_contact_width (scaled length)
+N_PRM = 41
 
 # ---- sc: one step ------------------------------------------------------------------
 S_X = 0  # CM position at the start of the step (3)

@@ -39,7 +39,9 @@ from .layout import (
     P_FREQ,
     P_G,
     P_IB,
+    P_LINE_STRIP,
     P_LINEFRAC,
+    P_LINEW,
     P_MASS,
     P_MU,
     P_N,
@@ -631,6 +633,26 @@ def _lift_off(state, buf, hc, model, opts, max_turn, scr):  # type: ignore[no-un
 
 
 @jit
+def _line_area(prm, geo, nact, ca, cb, amin):  # type: ignore[no-untyped-def]
+    """Adhering area of a line or point contact (MODEL.md, "Forces").
+
+    Strip rule (``P_LINE_STRIP``): a strip of width ``w = P_LINEW`` along the touching
+    segment, ``w x l``: one line constraint alone (a cylinder's line, a hull face bridging
+    edges) touches along ``cllen``; two constraints meet in a straight edge of length
+    ``cedge`` (0: a point or curved edge, or a hull face bridging edges); three or more, or
+    an edge of length 0, are point contact, ``w^2``. The paper's rule (``face_fraction``):
+    ``P_LINEFRAC`` x the smallest active face's area."""
+    if prm[P_LINE_STRIP] < 0.5:
+        return prm[P_LINEFRAC] * amin
+    w = prm[P_LINEW]
+    if nact == 1:
+        return w * geo.cllen[ca]
+    if nact == 2 and geo.cedge[ca, cb] > 0.0:
+        return w * geo.cedge[ca, cb]
+    return w * w
+
+
+@jit
 def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
     """Contact mode, adhering area, total normal force, slip speed and ECP piece offset at
     the pose and velocities of ``state``."""
@@ -657,16 +679,22 @@ def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
             nact = 0
             amin = math.inf
             single_line = 0
+            ca = -1
+            cb = -1
             for ic in range(mk):
                 if z[off + B_L + ic] > CONTACT_L_TOL * ltot:
                     nact += 1
                     amin = min(amin, geo.carea[c0 + ic])
                     single_line = geo.cline[c0 + ic]
+                    if ca < 0:
+                        ca = c0 + ic
+                    else:
+                        cb = c0 + ic
             if nact == 1 and single_line == 0:
                 area += amin
                 mode = 2
             elif nact >= 1:
-                area += prm[P_LINEFRAC] * amin
+                area += _line_area(prm, geo, nact, ca, cb, amin)
                 if mode == 0:
                     mode = 1
             for i in range(3):

@@ -119,7 +119,8 @@ RANGES: dict[str, PhysicalRange] = {
     "V_m": PhysicalRange(0.0, _INF, False, True, "m^3", "magnetic volume"),
     "magnetization": PhysicalRange(0.0, _INF, False, True, "A/m", "magnetisation"),
     "adhesion_C": PhysicalRange(0.0, _INF, False, True, "N/m^2", "adhesion per contact area"),
-    "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact"),
+    "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact (face_fraction rule)"),
+    "line_contact_width": PhysicalRange(0.0, 1e-3, False, False, "m", "width of the adhering strip of a line contact (strip rule)"),
     "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t"),
     "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o"),
     "e_r": PhysicalRange(0.0, _INF, True, True, "m", "friction ellipsoid e_r"),
@@ -177,7 +178,13 @@ NUMERIC_FIELDS = (
     "e_o",
     "e_r",
     "g",
+    "line_contact_width",
 )
+
+#: the adhesion rules of line and point contact (MODEL.md, "Forces"): "strip" (default),
+#: C x line_contact_width x the touching segment's length (x width^2 at a point), or
+#: "face_fraction", the authors' cuboid rule line_contact_fraction x the smallest face area
+LINE_ADHESION_OPTIONS = ("strip", "face_fraction")
 
 
 @dataclass(frozen=True)
@@ -203,6 +210,8 @@ class Params:
     offset_axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
     electrostatic_in_flight: bool = True
     g: float = 9.81
+    line_contact_width: float = 5e-6
+    line_adhesion: str = "strip"
 
     def __post_init__(self) -> None:
         for name in NUMERIC_FIELDS:
@@ -217,6 +226,10 @@ class Params:
         object.__setattr__(self, "offset_axis", tuple(float(v) for v in a / np.linalg.norm(a)))
         if not isinstance(self.electrostatic_in_flight, (bool, np.bool_)):
             raise ValueError(f"electrostatic_in_flight={self.electrostatic_in_flight!r} is not allowed (allowed: True or False)")
+        if self.line_adhesion not in LINE_ADHESION_OPTIONS:
+            raise ValueError(
+                f"line_adhesion={self.line_adhesion!r} is not allowed (allowed: {', '.join(map(repr, LINE_ADHESION_OPTIONS))})"
+            )
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:

@@ -53,6 +53,8 @@ class RunRow(TypedDict, total=False):
     e_r: float
     electrostatic_in_flight: bool
     g: float
+    line_contact_width: float
+    line_adhesion: str
 
 
 @dataclass(frozen=True)

@@ -220,6 +220,8 @@ def prepare(inputs: RunInputs) -> RunSpec:
     prm[L.P_IB : L.P_IB + 9] = (shp.inertia(params.mass) / u.inertia).ravel()
     prm[L.P_FIELD_ON] = 1.0 if prm[L.P_TORQ] > 0.0 else 0.0
     prm[L.P_ROT_PAPER] = 1.0 if inputs.rotation == "paper" else 0.0
+    prm[L.P_LINE_STRIP] = 1.0 if params.line_adhesion == "strip" else 0.0
+    prm[L.P_LINEW] = params.line_contact_width / u.length
 
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
@@ -239,7 +241,9 @@ def initial_contact(spec: RunSpec) -> tuple[float, bool]:
     the first step.
     """
     resting = spec.lift_m == 0.0
-    return (spec.shape.rest_face_area(spec.params.line_contact_fraction) / spec.units.area if resting else 0.0), resting
+    p = spec.params
+    area = spec.shape.rest_face_area(p.line_contact_fraction, p.line_adhesion, p.line_contact_width) if resting else 0.0
+    return area / spec.units.area, resting
 
 
 def run_spec(spec: RunSpec, buffers: Buffers | None = None) -> tuple[np.ndarray, int, int]:

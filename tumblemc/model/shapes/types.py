@@ -176,13 +176,13 @@ class Shape:
         """
         return max(_piece_top(p) for p in self.pieces)
 
-    def rest_face_area(self, line_contact_fraction: float) -> float:
+    def rest_face_area(self, line_contact_fraction: float, rule: str = "face_fraction", width: float = 5e-6) -> float:
         """Adhering area (m^2) in the initial pose, lying with body +z along -n.
 
         With the time-stepper's rule: the faces of the lowest piece(s) whose outward normal
         is body +z at the rest height (one flat face: its area; one line face or several:
-        ``line_contact_fraction`` x the smallest); if none (the piece stands on an edge
-        along x), the constraints active on that edge, as line contact.
+        line contact by :meth:`line_area`); if none (the piece stands on an edge along x),
+        the constraints active on that edge, as line contact.
         """
         h = self.rest_height()
         total = 0.0
@@ -194,13 +194,13 @@ class Shape:
             if len(down) == 1 and not down[0].line:
                 total += down[0].area
             elif down:
-                total += line_contact_fraction * min(c.area for c in down)
+                total += self.line_area(down, p, rule, line_contact_fraction, width)
             else:
                 pts = p.support_points[p.support_points[:, 2] >= top - 1e-12]
                 centre = pts.mean(axis=0)
                 active = [c for c in p.constraints if abs(float(c.value(centre))) <= 1e-12]
                 if active:
-                    total += line_contact_fraction * min(c.area for c in active)
+                    total += self.line_area(active, p, rule, line_contact_fraction, width)
         return total
 
     def hull_faces(self) -> list[tuple[Constraint, np.ndarray]]:
@@ -249,7 +249,31 @@ class Shape:
         sup_pts = np.concatenate([p.support_points for p in self.pieces]) / LENGTH_M
         sup_start = np.cumsum([0] + [len(p.support_points) for p in self.pieces]).astype(np.int64)
         sup_pad = np.array([p.support_pad for p in self.pieces]) / LENGTH_M
-        return Geometry(ctype, cdata, carea, cline, pstart, np.ascontiguousarray(sup_pts), sup_start, sup_pad)
+        cllen = np.zeros(len(cons))
+        cedge = np.zeros((len(cons), len(cons)))
+        for k, p in enumerate(self.pieces):
+            ll, ee = segment_lengths(p)
+            a, b = pstart[k], pstart[k + 1]
+            cllen[a:b] = ll / LENGTH_M
+            cedge[a:b, a:b] = ee / LENGTH_M
+        return Geometry(ctype, cdata, carea, cline, pstart, np.ascontiguousarray(sup_pts), sup_start, sup_pad, cllen, cedge)
+
+    def line_area(self, constraints: list[Constraint], piece: Piece, rule: str, fraction: float, width: float) -> float:
+        """Adhering area (m^2) of the line or point contact of ``constraints`` of ``piece``.
+
+        The time-stepper's rule (:func:`tumblemc.kernels.stepper._line_area`): ``"strip"``,
+        ``width`` x the touching segment (:func:`segment_lengths`; ``width^2`` for a point),
+        or ``"face_fraction"``, ``fraction`` x the smallest face area.
+        """
+        if rule == "face_fraction":
+            return fraction * min(c.area for c in constraints)
+        ll, ee = segment_lengths(piece)
+        idx = [piece.constraints.index(c) for c in constraints]
+        if len(idx) == 1:
+            return width * float(ll[idx[0]])
+        if len(idx) == 2 and ee[idx[0], idx[1]] > 0.0:
+            return width * float(ee[idx[0], idx[1]])
+        return width * width
 
 
 def _piece_top(p: Piece) -> float:
@@ -261,6 +285,52 @@ def _piece_top(p: Piece) -> float:
             if all(float(o.value(apex)) <= 1e-12 for o in p.constraints if o is not c):
                 top = max(top, float(apex[2]))
     return top
+
+
+def segment_lengths(p: Piece) -> tuple[np.ndarray, np.ndarray]:
+    """Touching segments of a piece's line contacts (m), for the strip rule (MODEL.md, "Forces").
+
+    Returns ``(ll, ee)``: ``ll[i]``, for a line constraint touching alone, the total length
+    of the segments along x it touches with: the piece's x extent for a cylinder's line, and
+    that extent times the number of profile vertices on a hull face that bridges edges;
+    ``ee[i, j]`` the length of the straight edge two constraints share (the distance of the
+    support points on both, if those lie on a line), 0 for a point, a curved edge (a
+    cylinder's rim on an end cap), or a bridging hull face meeting an end cap (the segment
+    spans the gap between the bridged corners: they touch at points).
+    """
+    pts = p.support_points
+    size = float(np.ptp(pts, axis=0).max())
+    tol = REL_TOL * size + p.support_pad + 1e-15
+    m = len(p.constraints)
+    on = np.array([np.abs(c.value(pts)) <= tol for c in p.constraints])
+    x_extent = float(np.ptp(pts[:, 0]))
+    ll = np.zeros(m)
+    for i, c in enumerate(p.constraints):
+        if not c.line:
+            continue
+        if c.kind == "cylinder_x":
+            ll[i] = x_extent
+        else:
+            yz = np.unique(np.round(pts[on[i]][:, 1:] / max(size, 1e-300), 9), axis=0)
+            ll[i] = x_extent * len(yz)
+    ee = np.zeros((m, m))
+    for i in range(m):
+        for j in range(i + 1, m):
+            bridging = any(c.line and c.kind == "plane" for c in (p.constraints[i], p.constraints[j]))
+            both = pts[on[i] & on[j]]
+            if len(both) < 2:
+                continue
+            d = both - both[0]
+            far = d[int(np.argmax(np.linalg.norm(d, axis=1)))]
+            length = float(np.linalg.norm(far))
+            off_line = np.linalg.norm(d - np.outer(d @ far / length**2, far), axis=1) if length > 0 else d[:, 0]
+            # a bridging hull face meets another face along real material only where the
+            # segment runs along x (the extrusion of a hull vertex: an apex, an end corner);
+            # across an end cap it spans the gap between the corners it bridges
+            along_x = float(np.abs(far[1:]).max()) <= tol
+            if length > 0 and float(np.max(off_line)) <= tol and (along_x or not bridging):
+                ee[i, j] = ee[j, i] = length
+    return ll, ee
 
 
 def _touches_top(c: Constraint, p: Piece, top: float) -> bool:
