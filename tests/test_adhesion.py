@@ -97,3 +97,31 @@ def test_line_adhesion_is_validated() -> None:
         tumblemc.simulate(line_adhesion="glue", duration_s=0.001)
     with pytest.raises(ValueError, match="line_contact_width"):
         tumblemc.simulate(line_contact_width=-1.0, duration_s=0.001)
+
+
+def test_peel_release_costs_the_work_of_adhesion_and_lowers_the_snap_hop() -> None:
+    """adhesion_release="peel" costs the work of adhesion (issue 13, item 3).
+
+    A released face's adhesion holds until it has done C x peel_length per released area, so
+    the adhesion does more negative work and, with a long enough peel, the hop of issue 13's
+    reproducer 1 is lower; the force law is the default.
+    """
+    kw = {
+        "preset": "aluminum",
+        "incline_deg": 0.0,
+        "field_mT": 36.7659,
+        "freq_hz": 0.5,
+        "mu": 0.9557,
+        "adhesion_C": 243.2243,
+        "offset_deg": 27.4907,
+        "duration_s": 2.0,
+        "record_every": 10,
+    }
+    force = tumblemc.simulate(**kw)  # type: ignore[arg-type]
+    peel = tumblemc.simulate(adhesion_release="peel", peel_length=1e-4, **kw)  # type: ignore[arg-type]
+    assert force.attrs["adhesion_release"] == "force"
+    assert float(peel["work_adhesion"][-1]) < float(force["work_adhesion"][-1])
+    assert float(peel["position"][:, 2].max()) < 0.9 * float(force["position"][:, 2].max())
+    assert peel.attrs["status"] == 0 and peel.attrs["energy_gain_ratio"] < 1e-3
+    with pytest.raises(ValueError, match="adhesion_release"):
+        tumblemc.simulate(adhesion_release="glue", duration_s=0.001)

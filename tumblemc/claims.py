@@ -29,6 +29,17 @@ from tumblemc.model.shapes.library import get_shape
 _C = PRESETS["paper"].adhesion_C
 _L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
 
+#: issue 13's reproducer 1: the aluminum cuboid flat, ten times the adhesion, a strong slow field
+SNAP_HOP = {
+    "preset": "aluminum",
+    "incline_deg": 0.0,
+    "field_mT": 36.7659,
+    "freq_hz": 0.5,
+    "mu": 0.9557,
+    "adhesion_C": 243.2243,
+    "offset_deg": 27.4907,
+}
+
 #: adhesion plateaus of the paper cuboid: face (C L W) and end (C W H), N
 FACE_ADHESION = _C * _L * _W  # paper: 1.189e-6 N
 END_ADHESION = _C * _W * _H  # paper: 1.486e-7 N
@@ -343,6 +354,35 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
             )
 
 
+def release_claims(rep: Report) -> None:
+    """The adhesion release law (issue 13, item 3) on the aluminum claims and the snap hop.
+
+    The paper's aluminum claims (30 deg climbs, 45 fails) and issue 13's reproducer 1
+    under ``adhesion_release="peel"`` (``peel_length`` 10 um: releasing a face costs
+    ``C x 10 um`` per area; also 1 and 100 um for the hop), against the force law.
+    """
+    for th, want in ((30, True), (45, False)):
+        _, s, _ = timed_run(preset="aluminum", incline_deg=float(th), adhesion_release="peel")
+        rep.add(
+            "P1",
+            f"cuboid, aluminum, {th} deg, 20 mT, 1 Hz, adhesion_release=peel",
+            "progress ratio (climbed if >= 0.5)",
+            f"{s['progress_ratio']:.3f}",
+            "climbs" if want else "fails",
+            "pass" if s["climbed"] == want else "FAIL",
+        )
+    for release, length in (("force", 1e-5), ("peel", 1e-6), ("peel", 1e-5), ("peel", 1e-4)):
+        ds, s, _ = timed_run(periods=2.0, adhesion_release=release, peel_length=length, **SNAP_HOP)
+        rep.add(
+            "P2",
+            f"issue 13 reproducer 1 (snap hop), adhesion_release={release}" + (f", peel_length={length:g} m" if release == "peel" else ""),
+            "progress ratio; highest centre of mass",
+            f"{s['progress_ratio']:.3f}; {float(ds['position'].values[:, 2].max()) * 1e3:.2f} mm",
+            "(report)",
+            "report",
+        )
+
+
 def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
     """Magnetisation tilted out of the length-height plane: roll and yaw (issue 2)."""
     rng = np.random.default_rng(seed)
@@ -411,6 +451,8 @@ def run_validation(out_dir: str | Path = "validation", quick: bool = False) -> i
     paper_claims(rep, figdir, quick=quick)
     print("shape comparison ...", flush=True)
     shape_claims(rep, figdir, quick=quick)
+    print("adhesion release ...", flush=True)
+    release_claims(rep)
     print("non-planar robustness ...", flush=True)
     nonplanar(rep, n=4 if quick else 20)
     print("dt convergence ...", flush=True)

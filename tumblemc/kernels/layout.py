@@ -37,7 +37,9 @@ P_FIELD_ON = 37  # 1: field on, 0: off
 P_ROT_PAPER = 38  # 1: the paper's rotation row I+ (w+ - w)/h + w x (I+ w); 0: momentum form (I+ w+ - I w)/h
 P_LINE_STRIP = 39  # 1: line/point contact adheres over a strip of width P_LINEW (MODEL.md); 0: P_LINEFRAC x face area
 P_LINEW = 40  # line_contact_width (scaled length)
-N_PRM = 41
+P_PEEL = 41  # 1: a released face peels (adhesion_release="peel", MODEL.md departures); 0: the paper's force law
+P_PEEL_LEN = 42  # peel_length (scaled): the work of adhesion per area is C x peel_length
+N_PRM = 43
 
 # ---- sc: one step ------------------------------------------------------------------
 S_X = 0  # CM position at the start of the step (3)

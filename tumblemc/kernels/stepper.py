@@ -46,6 +46,8 @@ from .layout import (
     P_MU,
     P_N,
     P_O,
+    P_PEEL,
+    P_PEEL_LEN,
     P_T,
     P_TORQ,
     P_TORQUE_END,
@@ -633,6 +635,33 @@ def _lift_off(state, buf, hc, model, opts, max_turn, scr):  # type: ignore[no-un
 
 
 @jit
+def _peel(peel, left, area_old, area_new, h, z, prm):  # type: ignore[no-untyped-def]
+    """Peeling of a released face (``adhesion_release = "peel"``): ``(peel, left)`` after a step.
+
+    The paper's adhesion is a force that vanishes with the face. Peeling instead holds the
+    released area's adhesion ``C x released`` on the body until it has done the work of
+    adhesion ``C x peel_length`` per released area against it, counted as the force times
+    the centre of mass's rise along ``n`` in the step (``h n . v+``): releasing a face
+    costs that energy. A contact whose area grows again (the face lands back) ends the
+    peel."""
+    c = prm[P_ADHC]
+    if peel > 0.0:
+        rise = h * (prm[P_N] * z[0] + prm[P_N + 1] * z[1] + prm[P_N + 2] * z[2])
+        if rise > 0.0:
+            left -= c * peel * rise
+        if left <= 0.0:
+            peel = 0.0
+            left = 0.0
+    if area_new < area_old:
+        peel += area_old - area_new
+        left += c * prm[P_PEEL_LEN] * (area_old - area_new)
+    elif area_new > area_old:
+        peel = 0.0
+        left = 0.0
+    return peel, left
+
+
+@jit
 def _line_area(prm, geo, nact, ca, cb, amin):  # type: ignore[no-untyped-def]
     """Adhering area of a line or point contact (MODEL.md, "Forces").
 
@@ -803,6 +832,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     opts_smooth[O_MAXIT] = max(opts[O_MAXIT], SMOOTH_MAXIT)
 
     area_prev = area0
+    # peeling (P_PEEL): area released by the contact that still adheres, and the work of
+    # adhesion C x peel_length x released area left before it lets go (_peel)
+    peel = 0.0
+    peel_left = 0.0
     any_touch = touch0
     mode = 0
     lnsum = 0.0
@@ -835,7 +868,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
         while remaining > 1e-12 * h:
             if hc > remaining:
                 hc = remaining
-            _prepare(state, t, hc, prm, area_prev, any_touch, scr)
+            _prepare(state, t, hc, prm, area_prev + peel, any_touch, scr)
             # --- free-flight prediction; an explicit pose that clearly penetrates skips it
             flight = False
             free = False  # solved without contact (for the ledger)
@@ -1056,7 +1089,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             if status == ST_NAN:
                 break
             quat_step(state, 3, z, 3, hc, qs, 0)
-            ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev, prm, geo.pstart, sc, lw, led)
+            ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, led)
+            area_old = area_prev
             for i in range(3):
                 state[i] += hc * z[i]
                 state[7 + i] = z[i]
@@ -1068,7 +1102,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 t = t0 + (step + 1) * h  # whole steps: no accumulated rounding in time
             remaining -= hc
             mode, area_prev, lnsum, slip, ecp_off = _contact_state(z, state, prm, geo, scr)
-            adh = prm[P_ADHC] * area_prev
+            if prm[P_PEEL] > 0.5:
+                peel, peel_left = _peel(peel, peel_left, area_old, area_prev, hc, z, prm)
+            adh = prm[P_ADHC] * (area_prev + peel)
             any_touch = mode > 0
             off = 6
             for kp in range(K):

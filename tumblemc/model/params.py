@@ -120,6 +120,7 @@ RANGES: dict[str, PhysicalRange] = {
     "magnetization": PhysicalRange(0.0, _INF, False, True, "A/m", "magnetisation"),
     "adhesion_C": PhysicalRange(0.0, _INF, False, True, "N/m^2", "adhesion per contact area"),
     "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact (face_fraction rule)"),
+    "peel_length": PhysicalRange(0.0, 1e-3, False, False, "m", "separation over which a released face peels (peel release)"),
     "line_contact_width": PhysicalRange(0.0, 1e-3, False, False, "m", "width of the adhering strip of a line contact (strip rule)"),
     "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t"),
     "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o"),
@@ -179,7 +180,13 @@ NUMERIC_FIELDS = (
     "e_r",
     "g",
     "line_contact_width",
+    "peel_length",
 )
+
+#: how adhesion lets go of a released face: "force" (default, the paper's law: a force that
+#: vanishes with the face) or "peel" (its adhesion holds until it has done the work
+#: C x peel_length per released area)
+ADHESION_RELEASE_OPTIONS = ("force", "peel")
 
 #: the adhesion rules of line and point contact (MODEL.md, "Forces"): "strip" (default),
 #: C x line_contact_width x the touching segment's length (x width^2 at a point), or
@@ -212,6 +219,8 @@ class Params:
     g: float = 9.81
     line_contact_width: float = 5e-6
     line_adhesion: str = "strip"
+    peel_length: float = 1e-5
+    adhesion_release: str = "force"
 
     def __post_init__(self) -> None:
         for name in NUMERIC_FIELDS:
@@ -226,6 +235,9 @@ class Params:
         object.__setattr__(self, "offset_axis", tuple(float(v) for v in a / np.linalg.norm(a)))
         if not isinstance(self.electrostatic_in_flight, (bool, np.bool_)):
             raise ValueError(f"electrostatic_in_flight={self.electrostatic_in_flight!r} is not allowed (allowed: True or False)")
+        if self.adhesion_release not in ADHESION_RELEASE_OPTIONS:
+            allowed = ", ".join(map(repr, ADHESION_RELEASE_OPTIONS))
+            raise ValueError(f"adhesion_release={self.adhesion_release!r} is not allowed (allowed: {allowed})")
         if self.line_adhesion not in LINE_ADHESION_OPTIONS:
             raise ValueError(
                 f"line_adhesion={self.line_adhesion!r} is not allowed (allowed: {', '.join(map(repr, LINE_ADHESION_OPTIONS))})"

@@ -55,6 +55,8 @@ class RunRow(TypedDict, total=False):
     g: float
     line_contact_width: float
     line_adhesion: str
+    peel_length: float
+    adhesion_release: str
 
 
 @dataclass(frozen=True)

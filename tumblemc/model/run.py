@@ -222,6 +222,8 @@ def prepare(inputs: RunInputs) -> RunSpec:
     prm[L.P_ROT_PAPER] = 1.0 if inputs.rotation == "paper" else 0.0
     prm[L.P_LINE_STRIP] = 1.0 if params.line_adhesion == "strip" else 0.0
     prm[L.P_LINEW] = params.line_contact_width / u.length
+    prm[L.P_PEEL] = 1.0 if params.adhesion_release == "peel" else 0.0
+    prm[L.P_PEEL_LEN] = params.peel_length / u.length
 
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
