@@ -454,3 +454,23 @@ def test_default_toml() -> None:
     assert c.samples == 200 and c.n_runs == 4 * 2 * 13 * 200
     assert {u.param: u.to_dict() for u in c.uncertain} == DEFAULT_UNCERTAIN
     assert len(cells(c)) == 4 * 2 * 13
+
+
+def test_sampler_slots_are_append_only() -> None:
+    """A parameter's mc slot never moves: the first 13 are those of every earlier study."""
+    first = (
+        "mass",
+        "F_elect",
+        "mu",
+        "offset_deg",
+        "V_m",
+        "magnetization",
+        "adhesion_C",
+        "line_contact_fraction",
+        "e_t",
+        "e_o",
+        "e_r",
+        "g",
+        "field_mT",
+    )
+    assert UNCERTAIN_PARAMS[: len(first)] == first

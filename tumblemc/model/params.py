@@ -165,7 +165,8 @@ def magnetisation_dir(offset_deg: float, offset_axis: Any = (1.0, 0.0, 0.0)) -> 
 
 
 #: the numeric fields of :class:`Params`, each checked against :data:`RANGES`; this order is
-#: also the ``mc`` sampler's slot order (``study.distributions.UNCERTAIN_PARAMS``): append only
+#: also the ``mc`` sampler's slot order (``study.distributions.UNCERTAIN_PARAMS``, which puts
+#: ``field_mT`` after ``g``, before the later fields): append only
 NUMERIC_FIELDS = (
     "mass",
     "F_elect",

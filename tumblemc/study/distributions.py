@@ -35,8 +35,14 @@ U_EPS = 2.0**-53  # uniforms are kept in [eps, 1 - eps] so every ppf is finite
 
 
 #: the parameters that may be uncertain (each has a row in RANGES), in the order of the
-#: ``mc`` sampler's slots: part of the sampling scheme, append only
-UNCERTAIN_PARAMS: tuple[str, ...] = (*NUMERIC_FIELDS, "field_mT")
+#: ``mc`` sampler's slots: part of the sampling scheme, append only (the Params fields
+#: added after field_mT go after it, so that every earlier parameter keeps its slot)
+_ADDED_AFTER_FIELD = ("line_contact_width", "peel_length")
+UNCERTAIN_PARAMS: tuple[str, ...] = (
+    *(f for f in NUMERIC_FIELDS if f not in _ADDED_AFTER_FIELD),
+    "field_mT",
+    *_ADDED_AFTER_FIELD,
+)
 
 
 #: the uncertainty assumed when a config has no ``[uncertain]`` table
