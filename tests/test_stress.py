@@ -51,6 +51,7 @@ def test_invalid_table_lists_each_invalid_run_with_its_class() -> None:
 
 def test_three_d_runs_are_keyed_by_seed_and_tilted_out_of_plane() -> None:
     a = three_d_runs(2, seed=7)
+    assert all(r["status"] == 0 for r in a)
     b = three_d_runs(2, seed=7)
     assert [r["offset_axis"] for r in a] == [r["offset_axis"] for r in b]
     assert [r["preset"] for r in a] == ["paper", "paper"] and [r["incline_deg"] for r in a] == [0.0, 20.0]

@@ -114,7 +114,8 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         note = ""
         if not ok:
             note = (
-                "mu = 0.54 < tan(30 deg) = 0.577: in point/line contact (adhesion 5% of a face) the robot slides; see sensitivity rows S1"
+                "mu = 0.54 < tan(30 deg) = 0.577: in point/line contact (adhesion only over a 5 um strip of the edge, MODEL.md)"
+                " the robot slides; see sensitivity rows S1"
             )
         rep.add(
             "C2",

@@ -26,6 +26,7 @@ from matplotlib.figure import Figure
 
 from tumblemc.model.energy import ENERGY_GAIN_TOL
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
+from tumblemc.model.run import DEFAULT_ROTATION
 from tumblemc.schema import STATUS_FLAGS
 
 PAPER_CUBOID_H = 1e-4  # m (MODEL.md, "Shapes")
@@ -41,11 +42,12 @@ STATUS_CLASSES = {
 }
 
 
-def three_d_runs(n: int = 100, seed: int = 2026, rotation: str = "paper", dt: float | None = None) -> list[dict[str, Any]]:
+def three_d_runs(n: int = 100, seed: int = 2026, rotation: str = DEFAULT_ROTATION, dt: float | None = None) -> list[dict[str, Any]]:
     """``n`` cuboid runs with the magnetisation tilted about a random axis by up to 30 deg.
 
-    Runs cycle through (paper, aluminum) x (0, 20 deg), 20 mT, 1 Hz, 2 periods; the axis
-    and angle of run ``k`` are the ``k``-th draw of ``numpy.random.default_rng(seed)``.
+    Runs cycle through (paper, aluminum) x (0, 20 deg), 20 mT, 1 Hz, 2 periods, with the
+    default rotation row unless ``rotation`` says otherwise; the axis and angle of run
+    ``k`` are the ``k``-th draw of ``numpy.random.default_rng(seed)``.
     Returns one dict per run: its inputs and the outcomes of
     :func:`~tumblemc.model.rows.simulate_rows`, plus ``max_penetration_H`` (over the paper
     cuboid's height).
