@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -317,7 +318,9 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     paths = []
     for name, fig in figures:
         if note:
-            fig.text(0.01, 0.0, note, ha="left", va="top", fontsize=7, color="0.25")
+            # wrapped to the figure's width (about 7 pt characters per 0.055 inch)
+            width = max(40, int(fig.get_figwidth() / 0.055))
+            fig.text(0.01, 0.0, textwrap.fill(note, width), ha="left", va="top", fontsize=7, color="0.25")
         save_figure(fig, out / name)
         paths.append(out / name)
     return paths
