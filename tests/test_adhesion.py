@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import tumblemc
+from tumblemc.claims import SNAP_HOP
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import segment_lengths
 
@@ -106,17 +107,7 @@ def test_peel_release_costs_the_work_of_adhesion_and_lowers_the_snap_hop() -> No
     the adhesion does more negative work and, with a long enough peel, the hop of issue 13's
     reproducer 1 is lower; the force law is the default.
     """
-    kw = {
-        "preset": "aluminum",
-        "incline_deg": 0.0,
-        "field_mT": 36.7659,
-        "freq_hz": 0.5,
-        "mu": 0.9557,
-        "adhesion_C": 243.2243,
-        "offset_deg": 27.4907,
-        "duration_s": 2.0,
-        "record_every": 10,
-    }
+    kw = {**SNAP_HOP, "duration_s": 2.0, "record_every": 10}
     force = tumblemc.simulate(**kw)  # type: ignore[arg-type]
     peel = tumblemc.simulate(adhesion_release="peel", peel_length=1e-4, **kw)  # type: ignore[arg-type]
     assert force.attrs["adhesion_release"] == "force"

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import tumblemc
+from tumblemc.claims import SNAP_HOP
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
@@ -29,16 +30,7 @@ from tumblemc.model.shapes.library import get_shape
 
 DATA = Path(__file__).parent / "data" / "landing_steps.npz"
 OUT_OF_PLANE_2019_1 = {"offset_deg": 19.553717386076162, "offset_axis": (-0.8541623, -0.69975145, -1.01436414)}
-REPRO_1 = {
-    "preset": "aluminum",
-    "incline_deg": 0.0,
-    "field_mT": 36.7659,
-    "freq_hz": 0.5,
-    "duration_s": 4.0,
-    "mu": 0.9557,
-    "adhesion_C": 243.2243,
-    "offset_deg": 27.4907,
-}
+REPRO_1 = {**SNAP_HOP, "duration_s": 4.0}
 CASES = {
     "edge": {"preset": "paper", "incline_deg": 0.0, "duration_s": 2.0, **OUT_OF_PLANE_2019_1},
     "impact": {**REPRO_1, "dt": 1.25e-5},

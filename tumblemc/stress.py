@@ -24,6 +24,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from tumblemc.claims import SNAP_HOP
 from tumblemc.model.energy import ENERGY_GAIN_TOL
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.model.run import DEFAULT_ROTATION
@@ -85,20 +86,7 @@ def three_d_runs(n: int = 100, seed: int = 2026, rotation: str = DEFAULT_ROTATIO
 
 #: the reproducers of issue 13: (name, simulate keywords)
 REPRODUCERS: list[tuple[str, dict[str, Any]]] = [
-    (
-        "R1 snap hop",
-        {
-            "shape": "cuboid",
-            "preset": "aluminum",
-            "incline_deg": 0.0,
-            "field_mT": 36.7659,
-            "freq_hz": 0.5,
-            "duration_s": 4.0,
-            "mu": 0.9557,
-            "adhesion_C": 243.2243,
-            "offset_deg": 27.4907,
-        },
-    ),
+    ("R1 snap hop", {"shape": "cuboid", "duration_s": 4.0, **SNAP_HOP}),
     ("R2a tilt about z", {"preset": "aluminum", "incline_deg": 0.0, "duration_s": 2.0, "offset_deg": 30.0, "offset_axis": (0.0, 0.0, 1.0)}),
     (
         "R2b tilt about (1,0,1)",

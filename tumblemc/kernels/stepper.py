@@ -365,8 +365,8 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _impact_guess(z, off, state, h, model, scr):  # type: ignore[no-untyped-def]
-    """Guess 9 for the contact block at ``off`` (its ECP ``a1`` set): the rigid-body impact.
+def _impact_guess(z, off, mk, state, h, model, scr):  # type: ignore[no-untyped-def]
+    """Guess 9 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
 
     The impulse ``P`` that brings the contact point's velocity ``v_c = v + w x r`` (start of
     step, ``r = a1 - (x + h v)``) to rest, ``K P = -v_c`` with ``K = I/m - [r]x I^-1 [r]x``
@@ -448,22 +448,12 @@ def _impact_guess(z, off, state, h, model, scr):  # type: ignore[no-untyped-def]
         z[i] = state[7 + i] + P[i] / prm[P_MASS] + h * sc[S_FEXT + i] / prm[P_MASS]
         z[3 + i] = state[10 + i] + iw[3 * i] * tq[0] + iw[3 * i + 1] * tq[1] + iw[3 * i + 2] * tq[2]
         press -= prm[P_N + i] * sc[S_FEXT + i]
-    return _impact_forces(z, off, P, pn, press, h, model)
+    return _impact_forces(z, off, mk, P, pn, press, h, model.prm)
 
 
 @jit
-def _impact_forces(z, off, P, pn, press, h, model):  # type: ignore[no-untyped-def]
-    """Write the impact guess's forces into the contact block at ``off``; returns True."""
-    prm = model.prm
-    geo = model.geo
-    # the block's size: find the piece whose block starts at off
-    o = 6
-    mk = 0
-    for kp in range(geo.pstart.shape[0] - 1):
-        mk = geo.pstart[kp + 1] - geo.pstart[kp]
-        if o == off:
-            break
-        o += B_FIXED + mk
+def _impact_forces(z, off, mk, P, pn, press, h, prm):  # type: ignore[no-untyped-def]
+    """Write the impact guess's forces into the contact block at ``off`` (``mk`` constraints); returns True."""
     z[off + B_L + mk + 1] = pn / h + max(press, 0.0)
     pt = 0.0
     po = 0.0
@@ -478,6 +468,18 @@ def _impact_forces(z, off, P, pn, press, h, model):  # type: ignore[no-untyped-d
 
 
 @jit
+def _support_height(x, R, prm, geo, p):  # type: ignore[no-untyped-def]
+    """Height along ``n`` of support point ``p`` at the pose ``x``, ``R``."""
+    hgt = 0.0
+    for i in range(3):
+        wi = x[i]
+        for j in range(3):
+            wi += R[3 * i + j] * geo.sup_pts[p, j]
+        hgt += prm[P_N + i] * wi
+    return hgt
+
+
+@jit
 def _snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     """Angular velocity for guess 8: ``w`` plus the rotation over ``h`` that turns the line
     through the two lowest support points (of the piece with the lowest one, at the pose
@@ -489,12 +491,7 @@ def _snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     K = geo.pstart.shape[0] - 1
     for kp in range(K):
         for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
-            hgt = 0.0
-            for i in range(3):
-                wi = x[i]
-                for j in range(3):
-                    wi += R[3 * i + j] * geo.sup_pts[p, j]
-                hgt += prm[P_N + i] * wi
+            hgt = _support_height(x, R, prm, geo, p)
             if hgt < best:
                 best = hgt
                 kbest = kp
@@ -506,12 +503,7 @@ def _snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     h0 = math.inf
     h1 = math.inf
     for p in range(geo.sup_start[kbest], geo.sup_start[kbest + 1]):
-        hgt = 0.0
-        for i in range(3):
-            wi = x[i]
-            for j in range(3):
-                wi += R[3 * i + j] * geo.sup_pts[p, j]
-            hgt += prm[P_N + i] * wi
+        hgt = _support_height(x, R, prm, geo, p)
         if hgt < h0:
             p1 = p0
             h1 = h0
@@ -957,6 +949,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                 tmp3[i] = state[i] + hc * state[7 + i]
                             off = 6
                             kl = -1
+                            ml = 0
                             low = math.inf
                             for kp in range(K):
                                 mk = geo.pstart[kp + 1] - geo.pstart[kp]
@@ -965,8 +958,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                 if hk < low:
                                     low = hk
                                     kl = off
+                                    ml = mk
                                 off += B_FIXED + mk
-                            if not _impact_guess(z, kl, state, hc, model, scr):
+                            if not _impact_guess(z, kl, ml, state, hc, model, scr):
                                 continue
                         elif guess == 8:
                             # the nearly level edge laid level: pre-impact v, snapped w, the
