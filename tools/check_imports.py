@@ -39,6 +39,7 @@ LAYERS: dict[str, int] = {
     "tumblemc.version": 0,
     "tumblemc.schema": 1,
     "tumblemc.model": 1,
+    "tumblemc.fields": 1,
     "tumblemc.testing": 1,
     # pure functions of Datasets and files
     "tumblemc.io": 2,

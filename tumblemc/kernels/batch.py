@@ -13,18 +13,17 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
+from .field import field_work_bound
 from .layout import (
     ENERGY_GAIN_TOL,
     L_GAIN,
     L_KE,
     L_POTMAX,
     P_FIELD_ON,
-    P_FREQ,
     P_G,
     P_MASS,
     P_O,
     P_T,
-    P_TORQ,
     P_U,
     R_FALLBACK,
     R_LED,
@@ -163,7 +162,7 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         t_run = rec[rows - 1, R_T] - rec[0, R_T]
         eref = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G] + rec[rows - 1, R_LED + L_POTMAX]
         if prms[b, P_FIELD_ON] > 0.5:
-            eref += prms[b, P_TORQ] * (2.0 + 2.0 * math.pi * prms[b, P_FREQ] * t_run)
+            eref += field_work_bound(prms[b], t_run)
         gain = rec[rows - 1, R_LED + L_GAIN]
         if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
             code = BATCH_FAILED_STEPS

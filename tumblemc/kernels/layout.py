@@ -39,7 +39,18 @@ P_LINE_STRIP = 39  # 1: line/point contact adheres over a strip of width P_LINEW
 P_LINEW = 40  # line_contact_width (scaled length)
 P_PEEL = 41  # 1: a released face peels (adhesion_release="peel", MODEL.md departures); 0: the paper's force law
 P_PEEL_LEN = 42  # peel_length (scaled): the work of adhesion per area is C x peel_length
-N_PRM = 43
+P_FPROG = 43  # number of field-program segments after N_PRM (0: the paper's field, P_TORQ x R_x(2 pi P_FREQ t) u)
+N_PRM = 44
+
+# ---- field program: prm[N_PRM + k * FSEG + FS_*], one row per segment (model/fields.py) ----
+FS_T0 = 0  # segment start time
+FS_FREQ = 1  # rotation frequency (cycles per time unit; 0: static)
+FS_PSI0 = 2  # phase at the segment start (rad)
+FS_AMP = 3  # rotating part: V_m |E| |B_rot| (a torque magnitude)
+FS_S = 4  # start direction s (3)
+FS_W = 7  # a x s (3)
+FS_BIAS = 10  # static part V_m |E| B_static (3)
+FSEG = 13
 
 # ---- sc: one step ------------------------------------------------------------------
 S_X = 0  # CM position at the start of the step (3)

@@ -12,6 +12,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
+from .field import field_dir, program_field
 from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
     B_A1,
@@ -36,7 +37,7 @@ from .layout import (
     P_ELECT_FLIGHT,
     P_FELECT,
     P_FIELD_ON,
-    P_FREQ,
+    P_FPROG,
     P_G,
     P_IB,
     P_LINE_STRIP,
@@ -51,7 +52,6 @@ from .layout import (
     P_T,
     P_TORQ,
     P_TORQUE_END,
-    P_U,
     R_ADH,
     R_AREA,
     R_ECP,
@@ -160,19 +160,6 @@ def _norm3(a):  # type: ignore[no-untyped-def]
 
 
 @jit
-def field_dir(prm, t, out):  # type: ignore[no-untyped-def]
-    """Unit field ``R_x(2 pi f t) u`` (MODEL.md, "Field and magnetisation")."""
-    a = 2.0 * math.pi * prm[P_FREQ] * t
-    c = math.cos(a)
-    s = math.sin(a)
-    u1 = prm[P_U + 1]
-    u2 = prm[P_U + 2]
-    out[0] = prm[P_U]
-    out[1] = c * u1 - s * u2
-    out[2] = s * u1 + c * u2
-
-
-@jit
 def _prepare(state, t, h, prm, area_prev, touching_prev, scr):  # type: ignore[no-untyped-def]
     """Step data ``scr.sc`` for a step of length ``h`` from ``state`` at ``t``; returns the push along -n."""
     sc = scr.sc
@@ -193,6 +180,15 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, scr):  # type: ignore[n
         for i in range(3):
             sc[S_TM + i] = 0.0
             sc[S_BEND + i] = 0.0
+    elif prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
+        if prm[P_TORQUE_END] > 0.5:
+            program_field(prm, t + h, sc[S_BEND : S_BEND + 3])
+        else:
+            quat_to_rot(state, 3, R, 0)
+            for i in range(3):
+                tmp[i] = R[3 * i] * prm[P_EB] + R[3 * i + 1] * prm[P_EB + 1] + R[3 * i + 2] * prm[P_EB + 2]
+            program_field(prm, t, tmp2)
+            cross(tmp, 0, tmp2, 0, sc, S_TM)
     elif prm[P_TORQUE_END] > 0.5:  # the residual forms (R+ e_b) x B(t + h) itself
         field_dir(prm, t + h, tmp2)
         for i in range(3):
@@ -1190,7 +1186,6 @@ __all__ = [
     "Start",
     "Workspace",
     "empty_record",
-    "field_dir",
     "make_buffers",
     "n_records",
     "run",

@@ -21,11 +21,10 @@ gyroscopic rotation row in a 3-D spin, gains 20% to many times the scale.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from tumblemc.kernels import layout as L
+from tumblemc.kernels.field import field_work_bound as kernel_work_bound
 from tumblemc.model.frames import quat_to_matrix
 from tumblemc.model.units import Units
 
@@ -48,14 +47,12 @@ LEDGER_COLUMNS = {
 
 
 def field_work_bound(prm: np.ndarray, duration: float) -> float:
-    """``|m||B| (2 + 2 pi f T)`` in kernel units.
+    """The most work the field can do on the magnet in ``duration`` (kernel units).
 
-    The most work a field rotating at ``f`` can do on the magnet in ``T`` (``prm``: the run
-    constants; ``duration`` scaled).
+    ``|m||B| (2 + 2 pi f T)`` for the paper's field, summed over the segments of a field
+    program (:func:`tumblemc.kernels.field.field_work_bound`, which the batch kernel calls).
     """
-    if prm[L.P_FIELD_ON] < 0.5:
-        return 0.0
-    return float(prm[L.P_TORQ] * (2.0 + 2.0 * math.pi * prm[L.P_FREQ] * duration))
+    return float(kernel_work_bound(prm, float(duration)))
 
 
 def energy_reference(prm: np.ndarray, duration: float, ke0: float, released: float) -> float:
@@ -68,11 +65,14 @@ def energy_reference(prm: np.ndarray, duration: float, ke0: float, released: flo
     return (ke0 + prm[L.P_MASS] * prm[L.P_G] + released) + field_work_bound(prm, duration)  # the batch kernel's order
 
 
-def ledger_variables(prm: np.ndarray, units: Units, rows: np.ndarray, field_T: np.ndarray) -> dict[str, tuple[str, np.ndarray]]:
+def ledger_variables(
+    prm: np.ndarray, units: Units, rows: np.ndarray, field_T: np.ndarray, torque_per_tesla: float
+) -> dict[str, tuple[str, np.ndarray]]:
     """The ledger's time series (J) for a run Dataset from its record ``rows`` (scaled).
 
     Also the potential energy of gravity and of the electrostatic force (constant along
-    ``-n``) relative to the start, and the magnetic energy ``-V_m (R E_b) . B``.
+    ``-n``) relative to the start, and the magnetic energy ``-V_m (R E_b) . B``
+    (``torque_per_tesla``: ``V_m |E|`` in kernel torque units per tesla).
     """
     e = units.energy
     out = {name: ("time", rows[:, L.R_LED + col] * e) for name, col in LEDGER_COLUMNS.items()}
@@ -83,7 +83,10 @@ def ledger_variables(prm: np.ndarray, units: Units, rows: np.ndarray, field_T: n
     m_world = quat_to_matrix(rows[:, L.R_Q : L.R_Q + 4]) @ prm[L.P_EB : L.P_EB + 3]
     bmag = np.linalg.norm(field_T, axis=-1)
     bhat = np.divide(field_T, bmag[:, None], out=np.zeros_like(field_T), where=bmag[:, None] > 0)
-    out["magnetic_energy"] = ("time", -prm[L.P_TORQ] * np.einsum("ij,ij->i", m_world, bhat) * e)
+    if prm[L.P_FPROG] > 0:  # a field program: |B| varies, V_m |E| (R E_b) . B
+        out["magnetic_energy"] = ("time", -torque_per_tesla * np.einsum("ij,ij->i", m_world, field_T) * e)
+    else:
+        out["magnetic_energy"] = ("time", -prm[L.P_TORQ] * np.einsum("ij,ij->i", m_world, bhat) * e)
     return out
 
 

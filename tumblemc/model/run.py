@@ -15,6 +15,18 @@ from tumblemc.kernels.geometry import Geometry
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Buffers, Clock, Model, Start, empty_record, make_buffers, n_records, run
 from tumblemc.model.energy import ENERGY_GAIN_TOL, energy_summary, ledger_variables
+from tumblemc.model.fields import (
+    Field,
+    Rotating,
+    Sequence,
+    Static,
+    compile_program,
+    describe,
+    field_at,
+    peak_mT,
+    revolutions,
+    scale_program,
+)
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.outcome import run_status
 from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
@@ -67,6 +79,8 @@ class RunInputs:
     lift_m: float
     v0: tuple[float, float, float]
     omega0: tuple[float, float, float]
+    field: Field | None
+    program: np.ndarray | None  # compile_program(field), SI; None: the paper's field
 
 
 @dataclass(frozen=True)
@@ -111,11 +125,12 @@ def run_inputs(
     shape: str | Shape = "cuboid",
     preset: str | Params = "paper",
     incline_deg: float = 0.0,
-    field_mT: float = 20.0,
-    freq_hz: float = 1.0,
+    field_mT: float | None = None,
+    freq_hz: float | None = None,
     duration_s: float | None = None,
     dt: float | None = None,
     *,
+    field: Field | None = None,
     periods: float | None = None,
     torque: str = "start",
     rotation: str = DEFAULT_ROTATION,
@@ -129,8 +144,11 @@ def run_inputs(
     """Validate the inputs of one run: the one place where run inputs are checked.
 
     Parameters are those of :func:`simulate`. The duration is either ``duration_s``
-    (default 2 s) or ``periods`` field periods (``periods / freq_hz``, which needs
-    ``freq_hz > 0``), not both.
+    (default 2 s, or a :class:`~tumblemc.fields.Sequence`'s total) or ``periods`` field
+    periods (``periods / freq_hz``, which needs ``freq_hz > 0``), not both. ``field`` (a
+    field program) and ``field_mT``/``freq_hz`` (the paper's field, default 20 mT, 1 Hz)
+    exclude each other; for a program, ``field_mT`` and ``freq_hz`` of the result are its
+    peak magnitude and its mean rotation rate (revolutions / duration).
 
     Returns
     -------
@@ -148,8 +166,26 @@ def run_inputs(
     shp = get_shape(shape)
     params = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
     incline_deg = RANGES["incline_deg"].check("incline_deg", incline_deg)
-    field_mT = RANGES["field_mT"].check("field_mT", field_mT)
-    freq_hz = RANGES["freq_hz"].check("freq_hz", freq_hz)
+    program = None
+    if field is not None:
+        if not isinstance(field, (Static, Rotating, Sequence)):
+            raise ValueError(f"field={field!r} is not allowed (allowed: tumblemc.fields.Static, Rotating or Sequence)")
+        if field_mT is not None or freq_hz is not None:
+            raise ValueError(
+                f"field={describe(field)!r} and field_mT={field_mT!r}, freq_hz={freq_hz!r} are both given "
+                "(allowed: a field program or the paper's field_mT/freq_hz shorthand)"
+            )
+        if periods is not None:
+            raise ValueError(f"periods={periods!r} is not allowed with a field program (allowed: duration_s)")
+        if duration_s is None and isinstance(field, Sequence):
+            duration_s = field.duration_s
+        if isinstance(field, Rotating) and field == Rotating(field.mT, field.hz):
+            field_mT, freq_hz = field.mT, field.hz  # the paper's field: the kernel's own code, identical records
+        else:
+            program = compile_program(field, incline_deg)
+            field_mT = peak_mT(program)
+    field_mT = RANGES["field_mT"].check("field_mT", 20.0 if field_mT is None else field_mT)
+    freq_hz = RANGES["freq_hz"].check("freq_hz", 1.0 if freq_hz is None else freq_hz)
     if periods is not None:
         if duration_s is not None:
             raise ValueError(f"duration_s={duration_s!r} and periods={periods!r} are both given (allowed: one of them)")
@@ -174,6 +210,8 @@ def run_inputs(
             f"({rows * L.N_REC * 8 / 2**30:.1f} GiB; allowed: up to {MAX_RECORD_BYTES / 2**30:.0f} GiB): raise record_every or dt"
         )
     lift_m = RANGES["lift_m"].check("lift_m", lift_m)
+    if program is not None:
+        freq_hz = revolutions(program, duration_s) / duration_s
     return RunInputs(
         shape=shp,
         params=params,
@@ -190,7 +228,14 @@ def run_inputs(
         lift_m=lift_m,
         v0=_check_vector("v0", v0),
         omega0=_check_vector("omega0", omega0),
+        field=field,
+        program=program,
     )
+
+
+def torque_per_tesla(params: Params, u: Units) -> float:
+    """``V_m |E|`` in kernel torque units per tesla: the magnetic torque is this times ``(R E_b) x B``."""
+    return params.V_m * params.magnetization / u.torque
 
 
 def prepare(inputs: RunInputs) -> RunSpec:
@@ -198,7 +243,8 @@ def prepare(inputs: RunInputs) -> RunSpec:
     shp, params = inputs.shape, inputs.params
     u = Units(mass=params.mass, g=params.g)
     fr = plane_frame(inputs.incline_deg)
-    prm = np.zeros(L.N_PRM)
+    nseg = 0 if inputs.program is None else len(inputs.program)
+    prm = np.zeros(L.N_PRM + nseg * L.FSEG)
     prm[L.P_MASS] = 1.0
     prm[L.P_G] = 1.0
     prm[L.P_FELECT] = params.F_elect / u.force
@@ -208,7 +254,7 @@ def prepare(inputs: RunInputs) -> RunSpec:
     prm[L.P_ER] = params.e_r / u.length
     prm[L.P_LINEFRAC] = params.line_contact_fraction
     prm[L.P_ADHC] = params.adhesion_C * u.area / u.force
-    prm[L.P_TORQ] = params.V_m * params.magnetization * inputs.field_mT * 1e-3 / u.torque
+    prm[L.P_TORQ] = params.V_m * params.magnetization * inputs.field_mT * 1e-3 / u.torque  # this order: records as before programs
     prm[L.P_FREQ] = inputs.freq_hz * u.time
     prm[L.P_ELECT_FLIGHT] = 1.0 if params.electrostatic_in_flight else 0.0
     prm[L.P_TORQUE_END] = 1.0 if inputs.torque == "end" else 0.0
@@ -224,6 +270,9 @@ def prepare(inputs: RunInputs) -> RunSpec:
     prm[L.P_LINEW] = params.line_contact_width / u.length
     prm[L.P_PEEL] = 1.0 if params.adhesion_release == "peel" else 0.0
     prm[L.P_PEEL_LEN] = params.peel_length / u.length
+    if inputs.program is not None:
+        prm[L.P_FPROG] = nseg
+        prm[L.N_PRM :] = scale_program(inputs.program, u.time, torque_per_tesla(params, u)).ravel()
 
     # initial state (MODEL.md): at rest, flat, body +y along u, body +z along -n
     R0 = np.column_stack([np.cross(fr["u"], -fr["n"]), fr["u"], -fr["n"]])
@@ -278,10 +327,13 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
     uphill = plane_frame(spec.incline_deg)["u"]
     progress = (pos - pos[0]) @ uphill
     fr = plane_frame(spec.incline_deg)
-    ang = 2 * np.pi * spec.freq_hz * t
-    c, s = np.cos(ang), np.sin(ang)
-    ub = fr["u"]
-    field = spec.field_mT * 1e-3 * np.stack([np.full_like(t, ub[0]), c * ub[1] - s * ub[2], s * ub[1] + c * ub[2]], -1)
+    if spec.program is None:
+        ang = 2 * np.pi * spec.freq_hz * t
+        c, s = np.cos(ang), np.sin(ang)
+        ub = fr["u"]
+        field = spec.field_mT * 1e-3 * np.stack([np.full_like(t, ub[0]), c * ub[1] - s * ub[2], s * ub[1] + c * ub[2]], -1)
+    else:
+        field = field_at(spec.program, t)
     xyz = ("time", "xyz")
     ds = xr.Dataset(
         {
@@ -304,7 +356,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "failed": ("time", rows[:, L.R_FAIL].astype(np.int32)),
             "loose": ("time", rows[:, L.R_LOOSE].astype(np.int32)),
             "field": (xyz, field),
-            **ledger_variables(spec.prm, u, rows, field),
+            **ledger_variables(spec.prm, u, rows, field, torque_per_tesla(spec.params, u)),
         },
         coords={"time": t, "xyz": ["x", "y", "z"], "quat": ["w", "x", "y", "z"]},
     )
@@ -320,6 +372,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "incline_deg": spec.incline_deg,
             "field_mT": spec.field_mT,
             "freq_hz": spec.freq_hz,
+            "field_program": "paper" if spec.field is None else describe(spec.field),
             "duration_s": spec.duration_s,
             "dt": spec.dt,
             "torque": spec.torque,
@@ -346,11 +399,12 @@ def simulate(
     shape: str | Shape = "cuboid",
     preset: str | Params = "paper",
     incline_deg: float = 0.0,
-    field_mT: float = 20.0,
-    freq_hz: float = 1.0,
+    field_mT: float | None = None,
+    freq_hz: float | None = None,
     duration_s: float | None = None,
     dt: float | None = None,
     *,
+    field: Field | None = None,
     periods: float | None = None,
     torque: str = "start",
     rotation: str = DEFAULT_ROTATION,
@@ -371,8 +425,13 @@ def simulate(
         ``"paper"`` (Table 1) or ``"aluminum"`` (Table 3).
     incline_deg : float
         Incline of the substrate, degrees (rotation about world x).
-    field_mT, freq_hz : float
-        Rotating field magnitude (mT) and frequency (Hz); 0 mT switches the field off.
+    field_mT, freq_hz : float, optional
+        The paper's field: magnitude (mT, default 20) and frequency (Hz, default 1),
+        rotating about world x from the uphill direction; 0 mT switches the field off.
+    field : tumblemc.fields.Static, Rotating or Sequence, optional
+        A field program instead (MODEL.md, "Field programs"): static, rotating about any
+        axis, with a cone or bias, or a sequence of segments. ``Rotating(mT, hz)`` is the
+        paper's field (same physics; the shorthand runs the kernel's original code).
     duration_s : float, optional
         Simulated time, s (default 2 s).
     periods : float, optional
@@ -412,6 +471,7 @@ def simulate(
             freq_hz,
             duration_s,
             dt,
+            field=field,
             periods=periods,
             torque=torque,
             rotation=rotation,
