@@ -51,7 +51,9 @@ LAYERS: dict[str, int] = {
     "tumblemc.claims": 5,
     "tumblemc.stepcost": 5,
     "tumblemc.stress": 5,
+    "tumblemc.lab": 5,
     "tumblemc.cli": 6,
+    "tumblemc.cli_lab": 6,
     "tumblemc.__main__": 6,
     "tumblemc": 6,
 }

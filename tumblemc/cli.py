@@ -26,6 +26,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from tumblemc.cli_lab import add_lab_parser, cmd_lab
 from tumblemc.io import write_run
 from tumblemc.model.params import Params
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
@@ -134,6 +135,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--out", default="run.nc", help="output netCDF path (default: run.nc)")
     s.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
+
+    def add_set(q: argparse.ArgumentParser) -> None:
+        q.add_argument(
+            "--set", action="append", default=[], metavar="NAME=VALUE", dest="overrides", help="override a parameter (repeatable)"
+        )
+
+    add_lab_parser(sub, add_set)
 
     what = "run the validation suite and write its report"
     v = sub.add_parser("validate", help=what, description=what[0].upper() + what[1:] + ".")
@@ -437,6 +445,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_shapes(args)
         if args.command == "animate":
             return _cmd_animate(args)
+        if args.command == "lab":
+            return cmd_lab(args, parse_overrides(args.overrides))
     except (ValueError, _UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -1,0 +1,135 @@
+"""``tumblemc lab ...``: the bench-test protocols of :mod:`tumblemc.lab` from the command line.
+
+tumblemc lab static-tilt --field-mT 3:15:1 --direction 0,0,-1 --out tilt.nc --plot
+tumblemc lab critical-field --freq-hz 1 --incline-deg 0
+tumblemc lab step-out --freq-hz 1,5,10,20,30,40 --out stepout.nc --plot
+tumblemc lab steer --preset aluminum --plot
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SHAPE_HELP = "robot shape: cuboid, spiked, spiked_ends or curved (default: cuboid)"
+PRESET_HELP = "parameter preset: paper or aluminum (default: paper)"
+
+
+def parse_values(name: str, text: str) -> list[float]:
+    """``a:b:step`` (inclusive) or a comma list of numbers."""
+    try:
+        if ":" in text:
+            a, b, s = (float(v) for v in text.split(":"))
+            if not s > 0 or b < a:
+                raise ValueError
+            return list(np.round(np.arange(a, b + s / 2, s), 12))
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"{name}={text!r} is not allowed (allowed: START:STOP:STEP or a comma list, e.g. 3:15:1 or 1,5,10)") from None
+
+
+def parse_vector(name: str, text: str) -> tuple[float, float, float]:
+    """Three comma-separated numbers."""
+    try:
+        vals = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != 3:
+        raise ValueError(f"{name}={text!r} is not allowed (allowed: three comma-separated numbers, e.g. 0,0,-1)")
+    return (vals[0], vals[1], vals[2])
+
+
+def add_lab_parser(sub: Any, common: Any) -> None:
+    """Add ``lab`` and its protocol subcommands to the ``tumblemc`` parser (``common`` adds --set)."""
+    what = "bench tests in simulation: static tilt, critical field, step-out, steering"
+    lab = sub.add_parser("lab", help=what, description=what[0].upper() + what[1:] + " (docs/lab.md).")
+    ls = lab.add_subparsers(dest="lab_command", metavar="PROTOCOL")
+    ls.required = True
+
+    def base(p: argparse.ArgumentParser, out: str) -> None:
+        p.add_argument("--shape", default="cuboid", help=SHAPE_HELP)
+        p.add_argument("--preset", default="paper", help=PRESET_HELP)
+        common(p)
+        p.add_argument("--out", default=out, help=f"output netCDF path (default: {out})")
+        p.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
+
+    p = ls.add_parser("static-tilt", help="equilibrium tilt under a static field", description="Equilibrium tilt under a static field.")
+    p.add_argument(
+        "--field-mT", default="3:15:1", dest="field_mT", help="field magnitudes, mT: START:STOP:STEP or a list (default: 3:15:1)"
+    )
+    p.add_argument("--direction", default="0,0,-1", help="field direction, world frame (default: 0,0,-1, straight down)")
+    p.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
+    p.add_argument("--duration-s", type=float, default=0.6, help="simulated time per field, s (default: 0.6)")
+    p.add_argument("--dt", type=float, default=1.25e-5, help="time step, s (default: 1.25e-5)")
+    base(p, "static_tilt.nc")
+
+    p = ls.add_parser("critical-field", help="smallest field that tumbles (bisection)", description="Smallest field that tumbles.")
+    p.add_argument("--freq-hz", type=float, default=1.0, help="field frequency, Hz (default: 1)")
+    p.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
+    p.add_argument("--lo-mT", type=float, default=0.5, help="bracket low end, mT (default: 0.5)")
+    p.add_argument("--hi-mT", type=float, default=40.0, help="bracket high end, mT (default: 40)")
+    p.add_argument("--tol-mT", type=float, default=0.1, help="bracket width to stop at, mT (default: 0.1)")
+    base(p, "critical_field.nc")
+
+    p = ls.add_parser("step-out", help="speed and phase lag against frequency", description="Speed and phase lag against frequency.")
+    p.add_argument("--freq-hz", default="1,2,5,10,15,20,25,30,40", help="frequencies, Hz: START:STOP:STEP or a list")
+    p.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="field magnitude, mT (default: 20)")
+    p.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
+    base(p, "step_out.nc")
+
+    p = ls.add_parser("steer", help="roll about x, then about y: the heading turn", description="Roll about x, then y: the turn.")
+    p.add_argument("--freq-hz", type=float, default=1.75, help="field frequency, Hz (default: 1.75: no field jump with 1 s legs)")
+    p.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="field magnitude, mT (default: 20)")
+    p.add_argument("--leg-s", type=float, default=1.0, help="duration of each leg, s (default: 1)")
+    base(p, "steering.nc")
+
+
+def cmd_lab(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
+    """Run one protocol, write its Dataset (and figure), print its headline numbers."""
+    from tumblemc import lab
+
+    c = args.lab_command
+    kw = dict(shape=args.shape, preset=args.preset, **overrides)
+    if c == "static-tilt":
+        ds = lab.static_tilt(
+            parse_values("--field-mT", args.field_mT),
+            parse_vector("--direction", args.direction),
+            incline_deg=args.incline_deg,
+            duration_s=args.duration_s,
+            dt=args.dt,
+            progress=True,
+            **kw,
+        )
+        cols = ["tilt_deg", "tilt_spread_deg", "tilt_closed_form_deg", "tilt_min_deg", "tilt_max_deg", "status"]
+        print(ds[cols].to_dataframe().round(3).to_string())
+    elif c == "critical-field":
+        ds = lab.critical_field(args.freq_hz, args.incline_deg, lo_mT=args.lo_mT, hi_mT=args.hi_mT, tol_mT=args.tol_mT, **kw)
+        bracket = ds["bracket_mT"].values.round(4).tolist()
+        print(f"critical field {float(ds['critical_mT']):.3g} mT (bracket {bracket} mT, {int(ds['n_runs'])} runs)")
+    elif c == "step-out":
+        ds = lab.step_out(parse_values("--freq-hz", args.freq_hz), args.field_mT, args.incline_deg, progress=True, **kw)
+        print(ds[["speed", "progress_ratio", "phase_lag_deg", "status"]].to_dataframe().round(3).to_string())
+        print(f"step-out frequency: {float(ds['step_out_hz']):g} Hz")
+    else:
+        ds = lab.steering(field_mT=args.field_mT, freq_hz=args.freq_hz, leg_s=args.leg_s, **kw)
+        print(
+            f"turn {float(ds['turn_deg']):.2f} deg (legs {ds['heading_deg'].values.round(2).tolist()} deg), field jump "
+            f"{float(ds['field_jump_deg']):.1f} deg, failed steps {int(ds['failed_steps'])}, status {int(ds['status'])}"
+        )
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    ds.to_netcdf(out)
+    print(f"wrote {out}")
+    if args.plot:
+        from tumblemc.viz.lab import plot_lab
+
+        png = out.with_suffix(".png")
+        if plot_lab(ds, png) is not None:
+            print(f"wrote {png}")
+    return 0
+
+
+__all__ = ["add_lab_parser", "cmd_lab", "parse_values", "parse_vector"]

@@ -1,0 +1,360 @@
+"""Bench tests in simulation (issue 14): static tilt, critical field, step-out, steering.
+
+Each protocol returns an xarray Dataset with units (and a ``protocol`` attribute) that
+:mod:`tumblemc.viz.lab` plots; ``tumblemc lab ...`` runs them from the command line.
+
+- :func:`static_tilt`: the equilibrium tilt under a static field for each field strength.
+  The model has no damping besides friction and backward Euler's numerical dissipation,
+  so a robot that lifts rocks about its equilibrium (it snaps off its face and swings past
+  it). The equilibrium is detected where the tilt's second time derivative changes sign
+  during a smooth pivot (contact mode "line" on both sides, no impact): there the net
+  torque about the pivot vanishes, which is the definition of the equilibrium. The mean
+  and spread of those tilts are reported, with the rocking range and the time mean.
+  :func:`cuboid_tilt_balance` is the closed form for a cuboid pivoting about an edge
+  (``docs/lab.md`` derives it).
+- :func:`critical_field`: the smallest field magnitude at which the robot tumbles (or,
+  on an incline, climbs: progress ratio at least the threshold), by bisection.
+- :func:`step_out`: speed, progress ratio and phase lag against frequency, and the
+  step-out frequency (the first frequency at which the ratio falls below the threshold).
+- :func:`steering`: roll about one world axis, then another; the heading turn is the angle
+  between the centre of mass's displacements over the two legs.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence as Seq
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from tumblemc.model.fields import Rotating, Sequence, Static, compile_program, field_at
+from tumblemc.model.frames import plane_frame, quat_to_matrix
+from tumblemc.model.outcome import summarize
+from tumblemc.model.params import check_number, get_preset
+from tumblemc.model.run import simulate
+from tumblemc.version import __version__
+
+#: static_tilt's defaults: dt 1.25e-5 s keeps the rocking robot's energy ledger well inside
+#: its tolerance (docs/lab.md: at 5e-5 s the pivot's O(h) chord error makes the normal
+#: impulse do positive work, 1-2% of the field's work bound in 0.6 s); 0.6 s holds 30 to 60
+#: detected equilibria from 6.5 to 15 mT
+TILT_DT = 1.25e-5
+TILT_DURATION_S = 0.6
+TILT_SKIP_S = 0.1  # the first lift-off is left out of the detection
+LIFT_DEG = 0.5  # a robot that never tilts more than this stayed flat (held by adhesion)
+
+
+def tilt_deg(ds: xr.Dataset) -> np.ndarray:
+    """Tilt (degrees) of the body's bottom face: the angle between body z and ``-n`` (MODEL.md frames)."""
+    n = plane_frame(float(ds.attrs["incline_deg"]))["n"]
+    bz = quat_to_matrix(ds["quaternion"].values)[:, :, 2]
+    return np.degrees(np.arccos(np.clip(-(bz @ n), -1.0, 1.0)))
+
+
+def equilibrium_tilts(ds: xr.Dataset, skip_s: float = TILT_SKIP_S) -> np.ndarray:
+    """Tilts (deg) at which the tilt's acceleration changes sign during a smooth pivot.
+
+    Interpolated linearly between the two records around each sign change; only records
+    in line contact with line contact at both neighbours (no impact, no flight), after
+    ``skip_s`` and above :data:`LIFT_DEG`, count.
+    """
+    t = ds["time"].values
+    th = tilt_deg(ds)
+    acc = np.gradient(np.gradient(th, t), t)
+    line = ds["contact_mode"].values == 1
+    smooth = line.copy()
+    smooth[1:] &= line[:-1]
+    smooth[:-1] &= line[1:]
+    ok = smooth[:-1] & smooth[1:] & (t[:-1] > skip_s) & (th[:-1] > LIFT_DEG)
+    i = np.nonzero(ok & (np.sign(acc[:-1]) != np.sign(acc[1:])) & (acc[:-1] != acc[1:]))[0]
+    return th[i] + (th[i + 1] - th[i]) * acc[i] / (acc[i] - acc[i + 1])
+
+
+def cuboid_tilt_balance(field_mT: float, preset: str = "paper", **overrides: Any) -> float:
+    """Closed-form equilibrium tilt (deg) of the paper's cuboid under a field straight down (``-n``).
+
+    Flat until ``V_m|E||B| cos(phi) = (m g + F_elect + C L W) L / 2`` (face adhesion); then
+    the root in ``(0, 90 deg - phi)`` of
+    ``V_m|E||B| cos(theta + phi) = (m g + F_elect + lambda_line) (L/2 cos theta - H/2 sin theta)``
+    with ``lambda_line = C w W`` (strip rule) or ``line_contact_fraction x W H`` (the authors'
+    rule); docs/lab.md derives it. ``phi`` is the offset about the width axis.
+    """
+    from scipy.optimize import brentq
+
+    p = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
+    L, W, H = 800e-6, 400e-6, 100e-6  # shapes.library.cuboid()
+    phi = math.radians(p.offset_deg)
+    torque = p.V_m * p.magnetization * field_mT * 1e-3
+    load = p.mass * p.g + p.F_elect
+    lam_line = p.adhesion_C * (p.line_contact_width * W if p.line_adhesion == "strip" else p.line_contact_fraction * W * H)
+    if torque * math.cos(phi) <= (load + p.adhesion_C * L * W) * L / 2:
+        return 0.0
+
+    def net(th: float) -> float:
+        return torque * math.cos(th + phi) - (load + lam_line) * (L / 2 * math.cos(th) - H / 2 * math.sin(th))
+
+    return math.degrees(brentq(net, 0.0, math.pi / 2 - phi, xtol=1e-12))
+
+
+def _vec3(v: Seq[float]) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _grid(name: str, values: float | Seq[float], lo: float, hi: float) -> np.ndarray:
+    arr = np.atleast_1d(np.asarray(values, dtype=float))
+    for v in arr:
+        check_number(name, v, "", lo, hi)
+    if arr.size == 0:
+        raise ValueError(f"{name}=[] is empty (allowed: one or more values)")
+    return arr
+
+
+def static_tilt(
+    field_mT: float | Seq[float],
+    direction: Seq[float] = (0.0, 0.0, -1.0),
+    shape: str = "cuboid",
+    preset: str = "paper",
+    incline_deg: float = 0.0,
+    duration_s: float = TILT_DURATION_S,
+    dt: float = TILT_DT,
+    progress: bool = False,
+    **overrides: Any,
+) -> xr.Dataset:
+    """Equilibrium tilt under a static field of each magnitude in ``field_mT`` (world ``direction``).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimension ``field_mT``: ``tilt_deg`` (mean of the detected equilibria; 0 for a robot
+        that stayed flat), ``tilt_spread_deg`` (their standard deviation), ``n_equilibria``,
+        ``tilt_time_mean_deg``, ``tilt_min_deg``, ``tilt_max_deg`` (after the first
+        ``0.1 s``), ``status`` (the run's outcome status) and, for the paper's cuboid under
+        a field along ``-n``, ``tilt_closed_form_deg``.
+    """
+    fields = _grid("field_mT", field_mT, 0.0, 10_000.0)
+    keys = ("tilt_deg", "tilt_spread_deg", "n_equilibria", "tilt_time_mean_deg", "tilt_min_deg", "tilt_max_deg", "status")
+    out: dict[str, list[float]] = {k: [] for k in keys}
+    closed = []
+    down = np.allclose(np.asarray(direction, float) / np.linalg.norm(direction), -plane_frame(incline_deg)["n"])
+    for k, mT in enumerate(fields):
+        if progress:
+            print(f"static tilt {k + 1}/{len(fields)}: {mT:g} mT", flush=True)
+        ds = simulate(shape, preset, incline_deg, duration_s=duration_s, dt=dt, field=Static(float(mT), _vec3(direction)), **overrides)
+        th = tilt_deg(ds)
+        late = th[ds["time"].values > TILT_SKIP_S]
+        eq = equilibrium_tilts(ds)
+        flat = late.max(initial=0.0) < LIFT_DEG
+        out["tilt_deg"].append(0.0 if flat else (float(eq.mean()) if eq.size else math.nan))
+        out["tilt_spread_deg"].append(0.0 if flat else (float(eq.std()) if eq.size else math.nan))
+        out["n_equilibria"].append(eq.size)
+        out["tilt_time_mean_deg"].append(float(late.mean()))
+        out["tilt_min_deg"].append(float(late.min()))
+        out["tilt_max_deg"].append(float(late.max()))
+        out["status"].append(int(ds.attrs["status"]))
+        closed.append(cuboid_tilt_balance(float(mT), preset, **overrides) if shape == "cuboid" and down else math.nan)
+    units = {"n_equilibria": "1", "status": "1"}
+    data = {k: ("field_mT", np.asarray(v), {"units": units.get(k, "degree")}) for k, v in out.items()}
+    data["tilt_closed_form_deg"] = ("field_mT", np.asarray(closed), {"units": "degree", "long_name": "closed-form edge balance"})
+    res = xr.Dataset(data, coords={"field_mT": ("field_mT", fields, {"units": "mT", "long_name": "static field magnitude"})})
+    res["tilt_deg"].attrs["long_name"] = "equilibrium tilt (mean of the detected equilibria)"
+    if np.isfinite(closed).any():  # the closed form on a fine grid, for the figure (it jumps at lift-off)
+        fine = np.linspace(fields.min(), fields.max(), 400)
+        curve = [cuboid_tilt_balance(float(b), preset, **overrides) for b in fine]
+        res["tilt_closed_form_curve_deg"] = ("field_fine_mT", np.asarray(curve), {"units": "degree"})
+        res = res.assign_coords(field_fine_mT=("field_fine_mT", fine, {"units": "mT"}))
+    res.attrs.update(_attrs("static_tilt", shape, preset, incline_deg, dt, duration_s, overrides))
+    res.attrs["direction"] = list(map(float, direction))
+    return res
+
+
+def _attrs(protocol: str, shape: str, preset: str, incline_deg: float, dt: float | None, duration_s: float, overrides: dict) -> dict:
+    return {
+        "protocol": protocol,
+        "shape": shape,
+        "preset": preset,
+        "incline_deg": float(incline_deg),
+        "dt": float(dt) if dt else math.nan,
+        "duration_s": float(duration_s),
+        "overrides": repr(overrides),
+        "source": f"tumblemc {__version__}",
+        "Conventions": "CF-1.10",
+    }
+
+
+def _climbs(mT: float, freq_hz: float, incline_deg: float, shape: str, preset: str, periods: float, threshold: float, kw: dict) -> bool:
+    ds = simulate(shape, preset, incline_deg, mT, freq_hz, periods=periods, **kw)
+    return bool(summarize(ds, threshold=threshold)["climbed"])
+
+
+def critical_field(
+    freq_hz: float = 1.0,
+    incline_deg: float = 0.0,
+    shape: str = "cuboid",
+    preset: str = "paper",
+    lo_mT: float = 0.5,
+    hi_mT: float = 40.0,
+    tol_mT: float = 0.1,
+    periods: float = 3.0,
+    threshold: float = 0.5,
+    **overrides: Any,
+) -> xr.Dataset:
+    """Smallest field (mT) at which the robot tumbles (ratio >= ``threshold``), by bisection in ``[lo, hi]``.
+
+    Assumes one crossing in the bracket (checked at both ends): ``critical_mT`` is NaN
+    when the robot already tumbles at ``lo_mT`` or still fails at ``hi_mT`` (the flags say
+    which).
+    """
+    check_number("tol_mT", tol_mT, "", 1e-6, 1e3)
+    lo, hi = check_number("lo_mT", lo_mT, "", 0.0, 10_000.0), check_number("hi_mT", hi_mT, "", 0.0, 10_000.0)
+    if not hi > lo:
+        raise ValueError(f"hi_mT={hi_mT!r} is not above lo_mT={lo_mT!r} (allowed: lo_mT < hi_mT)")
+    args = (freq_hz, incline_deg, shape, preset, periods, threshold, overrides)
+    at_lo, at_hi = _climbs(lo, *args), _climbs(hi, *args)
+    n = 2
+    crit = math.nan
+    if not at_lo and at_hi:
+        while hi - lo > tol_mT:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if _climbs(mid, *args) else (mid, hi)
+            n += 1
+        crit = hi
+    res = xr.Dataset(
+        {
+            "critical_mT": ((), crit, {"units": "mT", "long_name": "smallest field that tumbles (upper end of the last bracket)"}),
+            "bracket_mT": (("end",), np.array([lo, hi]), {"units": "mT"}),
+            "tumbles_at_lo": ((), at_lo),
+            "tumbles_at_hi": ((), at_hi),
+            "n_runs": ((), n),
+        },
+        coords={"end": ["lo", "hi"]},
+    )
+    res.attrs.update(_attrs("critical_field", shape, preset, incline_deg, overrides.get("dt"), periods / freq_hz, overrides))
+    res.attrs.update({"freq_hz": float(freq_hz), "threshold": threshold, "tol_mT": tol_mT})
+    return res
+
+
+def phase_lag_deg(ds: xr.Dataset, t0: float) -> float:
+    """Mean angle (deg, in (-180, 180]) by which the magnetisation trails the field in the rotation plane, after ``t0``.
+
+    The paper's field rotates about world x; both vectors are projected onto the y-z plane.
+    """
+    from tumblemc.model.params import magnetisation_dir
+
+    e_b = magnetisation_dir(float(ds.attrs["offset_deg"]), ds.attrs.get("offset_axis", (1.0, 0.0, 0.0)))
+    m = quat_to_matrix(ds["quaternion"].values) @ e_b
+    b = ds["field"].values
+    keep = ds["time"].values >= t0
+    ang_m = np.unwrap(np.arctan2(m[keep, 2], m[keep, 1]))
+    ang_b = np.unwrap(np.arctan2(b[keep, 2], b[keep, 1]))
+    lag = float(np.degrees(np.mean(ang_b - ang_m)))
+    return (lag + 180.0) % 360.0 - 180.0
+
+
+def step_out(
+    freq_hz: Seq[float],
+    field_mT: float = 20.0,
+    incline_deg: float = 0.0,
+    shape: str = "cuboid",
+    preset: str = "paper",
+    periods: float = 4.0,
+    threshold: float = 0.5,
+    progress: bool = False,
+    **overrides: Any,
+) -> xr.Dataset:
+    """Speed, progress ratio and phase lag against frequency; the step-out frequency.
+
+    ``step_out_hz`` is the first swept frequency whose progress ratio falls below
+    ``threshold`` after one that did not (NaN if none): refine the sweep around it.
+    """
+    freqs = _grid("freq_hz", freq_hz, 0.0, 10_000.0)
+    speed, ratio, lag, status = [], [], [], []
+    for k, f in enumerate(freqs):
+        if progress:
+            print(f"step-out {k + 1}/{len(freqs)}: {f:g} Hz", flush=True)
+        ds = simulate(shape, preset, incline_deg, field_mT, float(f), periods=periods, **overrides)
+        s = summarize(ds, threshold=threshold)
+        speed.append(s["mean_speed"] * 1e3)
+        ratio.append(s["progress_ratio"])
+        status.append(s["status"])
+        lag.append(phase_lag_deg(ds, 1.0 / f))
+    ratio_a = np.asarray(ratio)
+    below = np.nonzero((ratio_a[1:] < threshold) & (ratio_a[:-1] >= threshold))[0]
+    res = xr.Dataset(
+        {
+            "speed": ("freq_hz", np.asarray(speed), {"units": "mm s-1", "long_name": "mean uphill speed after one period"}),
+            "progress_ratio": ("freq_hz", ratio_a, {"units": "1"}),
+            "phase_lag_deg": ("freq_hz", np.asarray(lag), {"units": "degree", "long_name": "field minus magnetisation angle"}),
+            "status": ("freq_hz", np.asarray(status), {"units": "1"}),
+            "step_out_hz": ((), float(freqs[below[0] + 1]) if below.size else math.nan, {"units": "Hz"}),
+        },
+        coords={"freq_hz": ("freq_hz", freqs, {"units": "Hz"})},
+    )
+    res.attrs.update(_attrs("step_out", shape, preset, incline_deg, overrides.get("dt"), periods, overrides))
+    res.attrs.update({"field_mT": float(field_mT), "threshold": threshold})
+    return res
+
+
+def steering(
+    preset: str = "paper",
+    shape: str = "cuboid",
+    field_mT: float = 20.0,
+    freq_hz: float = 1.75,
+    leg_s: float = 1.0,
+    axes: tuple[Seq[float], Seq[float]] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    **overrides: Any,
+) -> xr.Dataset:
+    """Roll about ``axes[0]`` for ``leg_s``, then about ``axes[1]``; the heading turn between the legs.
+
+    The first leg is the paper's field (it starts along the uphill direction, along the
+    magnetisation of the resting robot); the second continues the field from where the
+    first left it, projected onto its rotation plane (:class:`~tumblemc.fields.Sequence`).
+    With ``freq_hz x leg_s`` a whole number plus 3/4 (the default 1.75 Hz x 1 s), the field
+    then points up at the switch, normal to both axes, and turns without a jump; otherwise
+    it jumps by ``field_jump_deg`` (a robot on adhering aluminum can snap metres per second
+    off such a jump). The heading of a leg is the direction of the centre of mass's
+    displacement over it in the world x-y plane (flat ground).
+    """
+    seq = Sequence(
+        (leg_s, Rotating(field_mT, freq_hz, axis=_vec3(axes[0]))),
+        (leg_s, Rotating(field_mT, freq_hz, axis=_vec3(axes[1]))),
+    )
+    ds = simulate(shape, preset, 0.0, field=seq, **overrides)
+    t, p = ds["time"].values, ds["position"].values
+    i = int(np.searchsorted(t, leg_s - 1e-12))
+    prog = compile_program(seq, 0.0)
+    b0, b1 = field_at(prog, np.array([leg_s * (1 - 1e-12), leg_s]))
+    jump = math.degrees(math.acos(float(np.clip(b0 @ b1 / (np.linalg.norm(b0) * np.linalg.norm(b1)), -1.0, 1.0))))
+    d1, d2 = p[i] - p[0], p[-1] - p[i]
+    h1, h2 = math.degrees(math.atan2(d1[1], d1[0])), math.degrees(math.atan2(d2[1], d2[0]))
+    turn = (h2 - h1 + 180.0) % 360.0 - 180.0
+    res = xr.Dataset(
+        {
+            "heading_deg": ("leg", np.array([h1, h2]), {"units": "degree", "long_name": "direction of the displacement from world x"}),
+            "distance": ("leg", np.array([np.hypot(*d1[:2]), np.hypot(*d2[:2])]), {"units": "m"}),
+            "turn_deg": ((), turn, {"units": "degree"}),
+            "field_jump_deg": ((), jump, {"units": "degree", "long_name": "field direction change at the switch"}),
+            "failed_steps": ((), int(ds.attrs["failed_steps"])),
+            "status": ((), int(ds.attrs["status"])),
+            "max_height": ((), float(p[:, 2].max()), {"units": "m", "long_name": "highest centre of mass"}),
+        },
+        coords={"leg": [1, 2]},
+    )
+    res.attrs.update(_attrs("steering", shape, preset, 0.0, overrides.get("dt"), 2 * leg_s, overrides))
+    res.attrs["field_program"] = ds.attrs["field_program"]
+    res["position"] = (("time", "xyz"), p, {"units": "m"})
+    res = res.assign_coords(time=("time", t, {"units": "s"}), xyz=["x", "y", "z"])
+    return res
+
+
+__all__ = [
+    "critical_field",
+    "cuboid_tilt_balance",
+    "equilibrium_tilts",
+    "phase_lag_deg",
+    "static_tilt",
+    "steering",
+    "step_out",
+    "tilt_deg",
+]

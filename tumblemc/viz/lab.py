@@ -1,0 +1,90 @@
+"""Figures of the bench-test protocols (:mod:`tumblemc.lab`): one function per protocol Dataset."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+from tumblemc.viz.style import save_figure
+
+
+def _title(ds: xr.Dataset, what: str) -> str:
+    return f"{what}: {ds.attrs.get('shape', '?')} robot, {ds.attrs.get('preset', '?')} preset"
+
+
+def plot_static_tilt(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
+    """Equilibrium tilt against field strength, the rocking range, and the closed form where it applies."""
+    fig = Figure(figsize=(6.0, 4.0))
+    ax = fig.add_subplot()
+    b = ds["field_mT"].values
+    ax.fill_between(b, ds["tilt_min_deg"], ds["tilt_max_deg"], color="0.85", label="rocking range")
+    ax.errorbar(b, ds["tilt_deg"], yerr=ds["tilt_spread_deg"], fmt="o", color="C0", ms=4, capsize=2, label="simulated equilibrium")
+    if "tilt_closed_form_curve_deg" in ds:
+        ax.plot(ds["field_fine_mT"], ds["tilt_closed_form_curve_deg"], "-", color="C3", lw=1.2, label="closed-form edge balance")
+    ax.set_xlabel("static field |B| (mT)")
+    ax.set_ylabel("tilt (deg)")
+    ax.set_title(_title(ds, "Static tilt"), fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.grid(alpha=0.3)
+    save_figure(fig, path)
+    return fig
+
+
+def plot_step_out(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
+    """Speed and phase lag against frequency, with the step-out frequency marked."""
+    fig = Figure(figsize=(6.0, 5.0))
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    f = ds["freq_hz"].values
+    ax1.plot(f, ds["speed"], "o-", ms=4, label="simulated")
+    ideal = ds["speed"].values / ds["progress_ratio"].values
+    ax1.plot(f, ideal, "--", color="0.5", lw=1, label="no-slip tumbling")
+    ax1.set_ylabel("speed (mm/s)")
+    ax1.legend(fontsize=8)
+    ax2.plot(f, ds["phase_lag_deg"], "o-", ms=4, color="C1")
+    ax2.set_ylabel("phase lag (deg)")
+    ax2.set_xlabel("field frequency (Hz)")
+    so = float(ds["step_out_hz"])
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+        if np.isfinite(so):
+            ax.axvline(so, color="C3", lw=1)
+    ax1.set_title(_title(ds, "Step-out") + (f"; step-out at {so:g} Hz" if np.isfinite(so) else "; no step-out in the sweep"), fontsize=10)
+    save_figure(fig, path)
+    return fig
+
+
+def plot_steering(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
+    """Top view of the centre of mass's path over the two legs, with the turn."""
+    fig = Figure(figsize=(5.0, 5.0))
+    ax = fig.add_subplot()
+    t = ds["time"].values
+    p = ds["position"].values * 1e3
+    half = t <= float(ds.attrs["duration_s"]) / 2
+    ax.plot(p[half, 0], p[half, 1], color="C0", label="leg 1")
+    ax.plot(p[~half, 0], p[~half, 1], color="C1", label="leg 2")
+    ax.plot(p[0, 0], p[0, 1], "ko", ms=4)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(
+        _title(ds, "Steering") + f"\nturn {float(ds['turn_deg']):.1f} deg, field jump {float(ds['field_jump_deg']):.0f} deg", fontsize=10
+    )
+    save_figure(fig, path)
+    return fig
+
+
+PLOTS = {"static_tilt": plot_static_tilt, "step_out": plot_step_out, "steering": plot_steering}
+
+
+def plot_lab(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure | None:
+    """The figure of a protocol Dataset (by its ``protocol`` attribute); None when it has none."""
+    fn = PLOTS.get(str(ds.attrs.get("protocol")))
+    return fn(ds, path) if fn else None
+
+
+__all__ = ["plot_lab", "plot_static_tilt", "plot_steering", "plot_step_out"]
