@@ -52,6 +52,7 @@ LAYERS: dict[str, int] = {
     "tumblemc.stepcost": 5,
     "tumblemc.stress": 5,
     "tumblemc.lab": 5,
+    "tumblemc.calibrate": 5,
     "tumblemc.cli": 6,
     "tumblemc.cli_lab": 6,
     "tumblemc.__main__": 6,

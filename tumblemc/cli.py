@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tumblemc.cli_lab import add_lab_parser, cmd_lab
+from tumblemc.cli_lab import add_calibrate_parser, add_lab_parser, cmd_calibrate, cmd_lab
 from tumblemc.io import write_run
 from tumblemc.model.params import Params
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
@@ -142,6 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
         )
 
     add_lab_parser(sub, add_set)
+    add_calibrate_parser(sub, add_set)
 
     what = "run the validation suite and write its report"
     v = sub.add_parser("validate", help=what, description=what[0].upper() + what[1:] + ".")
@@ -445,6 +446,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_shapes(args)
         if args.command == "animate":
             return _cmd_animate(args)
+        if args.command == "calibrate":
+            return cmd_calibrate(args, parse_overrides(args.overrides))
         if args.command == "lab":
             return cmd_lab(args, parse_overrides(args.overrides))
     except (ValueError, _UsageError) as exc:
