@@ -121,9 +121,6 @@ and must keep at least :data:`MIN_KEPT_MASS` of the normal. ``uniform`` and
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import json
 import re
 import tomllib
 from collections.abc import Callable, Mapping
@@ -151,6 +148,7 @@ from tumblemc.study.checks import (
     config_error,
 )
 from tumblemc.study.distributions import DEFAULT_UNCERTAIN, Uncertain, nominal_value, parse_uncertain
+from tumblemc.study.posterior import Posterior, split_posterior
 
 #: version of the seed derivation and sampler mapping; part of every config hash
 SAMPLING_SCHEME = 1
@@ -224,6 +222,7 @@ class StudyConfig:
     check: CheckConfig = field(default_factory=CheckConfig)
     execution: ExecutionConfig = field(default_factory=ExecutionConfig)
     uncertain: tuple[Uncertain, ...] = ()
+    posterior: Posterior | None = None  # [uncertain] posterior = "calib.nc" (study/posterior.py)
 
     @property
     def cell_dims(self) -> tuple[str, ...]:
@@ -232,8 +231,8 @@ class StudyConfig:
 
     @property
     def uncertain_names(self) -> tuple[str, ...]:
-        """Names of the uncertain parameters, sorted."""
-        return tuple(u.param for u in self.uncertain)
+        """Names of the uncertain parameters (with those of the posterior), sorted."""
+        return tuple(sorted({u.param for u in self.uncertain} | set(self.posterior.params if self.posterior else ())))
 
     @property
     def n_runs(self) -> int:
@@ -333,7 +332,7 @@ def load_config(source: str | PathLike[str] | Mapping[str, Any] | StudyConfig) -
     except tomllib.TOMLDecodeError as e:
         raise ConfigError("", f"{path}: not valid TOML: {e}") from None
     try:
-        return _parse(data)
+        return _parse(data, path.parent)
     except ConfigError as e:
         raise ConfigError(e.key, f"{path}: {e}") from None
 
@@ -342,7 +341,7 @@ def load_config(source: str | PathLike[str] | Mapping[str, Any] | StudyConfig) -
 _INCLINE = (RANGES["incline_deg"].lo, RANGES["incline_deg"].hi)
 
 
-def _parse(d: Mapping[str, Any]) -> StudyConfig:
+def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     d = check_table("<config>", d)
     mode = check_choice("mode", d["mode"], MODES) if d.get("mode") is not None else "grid"
     m = _MODES[mode]
@@ -417,7 +416,10 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
         max_in_flight=None if et.get("max_in_flight") is None else check_int("execution.max_in_flight", et["max_in_flight"], 1, 10**6),
         workers=None if et.get("workers") is None else check_int("execution.workers", et["workers"], 1, 10**5),
     )
-    uncertain = parse_uncertain(d.get("uncertain", DEFAULT_UNCERTAIN))
+    unc_table, posterior = split_posterior(d.get("uncertain", DEFAULT_UNCERTAIN), base)
+    uncertain = parse_uncertain(unc_table)
+    if posterior is not None and sampler != "mc":
+        raise ConfigError("sampler", f"sampler={sampler!r} does not sample a posterior (allowed: mc with uncertain.posterior)")
 
     cfg = StudyConfig(
         name=name,
@@ -444,6 +446,7 @@ def _parse(d: Mapping[str, Any]) -> StudyConfig:
         check=check,
         execution=execution,
         uncertain=uncertain,
+        posterior=posterior,
     )
     for u in uncertain:  # every nominal the study will meet
         for p in presets:
@@ -462,39 +465,4 @@ def cells(config: StudyConfig) -> list[dict[str, Any]]:
     return _MODES[config.mode].cells(config)
 
 
-#: keys added to the schema after studies were written, with the value every earlier study
-#: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
-#: config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
-#: with it written out, so an earlier paper-form run's shards are refused, not mixed in
-ADDED_KEYS: dict[str, object] = {"rotation": "paper", "check.ratio_abs_tol": 0.05, "check.ratio_rel_tol": 0.1}
-
-
-def config_to_json(config: StudyConfig) -> str:
-    """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg`` expanded, ``[execution]`` left out.
-
-    ``load_config(json.loads(...))`` gives the config back (with the default execution table).
-    """
-    d = dataclasses.asdict(config)
-    del d["execution"]
-    for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
-        d[k] = list(d[k])
-    d["uncertain"] = {u.param: u.to_dict() for u in config.uncertain}
-    d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
-    if config.mode == "grid":  # keys only the critical-incline mode takes
-        del d["incline_range"], d["incline_tol"]
-    for key, default in ADDED_KEYS.items():  # keys added later: only when not at their default
-        *parents, leaf = key.split(".")
-        table = d
-        for p in parents:
-            table = table[p]
-        if table[leaf] == default:
-            del table[leaf]
-    return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
-
-
-def config_hash(config: StudyConfig) -> str:
-    """sha256 (hex) of the sampling scheme and :func:`config_to_json`.
-
-    The identity of a study's results; insensitive to ``[execution]``.
-    """
-    return hashlib.sha256(f"tumblemc-sampling-{SAMPLING_SCHEME}\n{config_to_json(config)}".encode()).hexdigest()
+from tumblemc.study.identity import ADDED_KEYS, config_hash, config_to_json  # noqa: E402, F401  (re-exported)

@@ -44,6 +44,7 @@ from tumblemc.schema import COORD_ATTRS, sampled_name
 from tumblemc.study.checks import is_number
 from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells, config_hash, config_to_json
 from tumblemc.study.distributions import U_EPS, UNCERTAIN_PARAMS, ParamDistribution, nominal_value
+from tumblemc.study.posterior import POSTERIOR_SLOT
 
 
 def _canonical_cell(cell: Mapping[str, Any]) -> str:
@@ -77,7 +78,7 @@ def _cell_words(cell: Mapping[str, Any]) -> list[int]:
 def _mc_uniforms(seed: int, words: list[int], n: int, slots: list[int]) -> np.ndarray:
     """(n, len(slots)) uniforms, one SeedSequence per run, one slot per parameter."""
     out = np.empty((n, len(slots)))
-    width = len(UNCERTAIN_PARAMS)
+    width = POSTERIOR_SLOT + 1  # generate_state is prefix-stable: the parameter slots are as before the posterior's
     for s in range(n):
         state = np.random.SeedSequence([seed, *words, s]).generate_state(width, np.uint64)
         out[s] = ((state[slots] >> np.uint64(11)).astype(float) + 0.5) * 2.0**-53
@@ -139,6 +140,8 @@ def design(config: StudyConfig) -> xr.Dataset:
     keys = np.empty(total, dtype=np.int64)
     ckeys = []
     cache: dict[tuple[str, float], ParamDistribution] = {}
+    post = config.posterior
+    pvals = np.empty((len(post.params) if post else 0, total))
     for c, cell in enumerate(cl):
         sl = slice(c * n, (c + 1) * n)
         u = _cell_uniforms(config, cell)
@@ -148,6 +151,8 @@ def design(config: StudyConfig) -> xr.Dataset:
             if dist is None:
                 dist = cache[(unc.param, nom)] = unc.resolve(nom)
             values[j, sl] = dist.ppf(u[:, j])
+        if post is not None:  # one whole draw per run, chosen by the run's own slot
+            pvals[:, sl] = post.rows(_mc_uniforms(config.seed, _cell_words(cell), n, [POSTERIOR_SLOT])[:, 0]).T
         canon = _canonical_cell(cell)  # once per cell, not per sample
         keys[sl] = [_run_key(canon, s) for s in range(n)]
         ckeys.append(cell_key(cell))
@@ -174,6 +179,11 @@ def design(config: StudyConfig) -> xr.Dataset:
         r = RANGES[unc.param]
         long = f"sampled {r.long_name} ({unc.dist})"
         data[sampled_name(unc.param)] = (run, values[j], {"units": r.units, "long_name": long})
+    if post is not None:
+        for j, name in enumerate(post.params):
+            r = RANGES[name]
+            long = f"sampled {r.long_name} (posterior {post.sha256[:12]})"
+            data[sampled_name(name)] = (run, pvals[j], {"units": r.units, "long_name": long})
     data["check_flag"] = (
         run,
         _check_mask(config, keys),
@@ -212,7 +222,7 @@ def params_for_run(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> 
         ``{param: value}`` in the units of :class:`~tumblemc.params.Params`, for
         ``simulate(**overrides)`` or ``PRESETS[substrate].replace(**overrides)``.
     """
-    return {u.param: float(_scalar(row, u.param)) for u in config.uncertain if u.param != "field_mT"}
+    return {p: float(_scalar(row, p)) for p in config.uncertain_names if p != "field_mT"}
 
 
 def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRow:

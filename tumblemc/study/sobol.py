@@ -21,6 +21,11 @@ from tumblemc.study.design import batch_row, run_kwargs
 from tumblemc.study.distributions import nominal_value
 
 
+def _independent(config: StudyConfig) -> None:
+    if config.posterior is not None:
+        raise ValueError("Sobol indices need independent inputs: a posterior's draws are correlated (allowed: [uncertain] distributions)")
+
+
 def map_unit_samples(config: StudyConfig, U: ArrayLike, substrate: str, field_mT: float) -> dict[str, np.ndarray]:
     """Map unit-hypercube points through a study's uncertain-parameter distributions.
 
@@ -40,6 +45,7 @@ def map_unit_samples(config: StudyConfig, U: ArrayLike, substrate: str, field_mT
         of the run table (:func:`tumblemc.study.design.sampled_name`).
     """
     u = np.asarray(U, dtype=np.float64)
+    _independent(config)
     d = len(config.uncertain)
     if u.ndim != 2 or u.shape[1] != d:
         raise ValueError(f"U must have shape (m, {d}) (one column per uncertain parameter), got {u.shape}")
@@ -108,6 +114,7 @@ def _design_cells(
 
     A row holds the cell coordinates and the sampled parameters.
     """
+    _independent(config)
     d = len(config.uncertain)
     if d == 0:
         raise ValueError("the config has no uncertain parameter: nothing to analyse")

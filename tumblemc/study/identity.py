@@ -1,0 +1,66 @@
+"""A study's identity: the canonical JSON of its config and the hash that names its results.
+
+Split from :mod:`tumblemc.study.config`, which re-exports :func:`config_to_json`,
+:func:`config_hash` and :data:`ADDED_KEYS`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from tumblemc.study.config import StudyConfig
+
+#: keys added to the schema after studies were written, with the value every earlier study
+#: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
+#: config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
+#: with it written out, so an earlier paper-form run's shards are refused, not mixed in
+ADDED_KEYS: dict[str, object] = {"rotation": "paper", "check.ratio_abs_tol": 0.05, "check.ratio_rel_tol": 0.1}
+
+
+def config_to_json(config: StudyConfig) -> str:
+    """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg`` expanded, ``[execution]`` left out.
+
+    ``load_config(json.loads(...))`` gives the config back (with the default execution table).
+    """
+    d = dataclasses.asdict(config)
+    del d["execution"]
+    for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
+        d[k] = list(d[k])
+    d["uncertain"] = {u.param: u.to_dict() for u in config.uncertain}
+    if d.pop("posterior") is not None:  # the file (where) and its sha256 (what)
+        d["uncertain"]["posterior"] = config.posterior.to_dict() if config.posterior else None
+    d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
+    if config.mode == "grid":  # keys only the critical-incline mode takes
+        del d["incline_range"], d["incline_tol"]
+    for key, default in ADDED_KEYS.items():  # keys added later: only when not at their default
+        *parents, leaf = key.split(".")
+        table = d
+        for p in parents:
+            table = table[p]
+        if table[leaf] == default:
+            del table[leaf]
+    return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def config_hash(config: StudyConfig) -> str:
+    """sha256 (hex) of the sampling scheme and :func:`config_to_json`.
+
+    The identity of a study's results; insensitive to ``[execution]``.
+    """
+    text = config_to_json(config)
+    if config.posterior is not None:  # the posterior's identity is its content, not where it lies
+        text = text.replace(json.dumps(config.posterior.file), '""', 1)
+    return hashlib.sha256(f"tumblemc-sampling-{_scheme()}\n{text}".encode()).hexdigest()
+
+
+def _scheme() -> int:
+    from tumblemc.study.config import SAMPLING_SCHEME
+
+    return SAMPLING_SCHEME
+
+
+__all__ = ["ADDED_KEYS", "config_hash", "config_to_json"]

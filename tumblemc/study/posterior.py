@@ -1,0 +1,101 @@
+"""A calibration posterior as a study's joint uncertainty (``[uncertain] posterior = "calib.nc"``).
+
+The file is what :func:`tumblemc.calibrate.calibrate` writes: one variable per
+:class:`~tumblemc.model.params.Params` field along ``sample``. Each run takes one whole
+draw (row) of it, so the correlations the calibration found are kept. The row is chosen by
+a run-keyed uniform (the ``mc`` stream's slot :data:`POSTERIOR_SLOT`, after every parameter
+slot), so a run gets the same draw whatever the workers or batch sizes, and whatever the
+other uncertain parameters. Parameters in the posterior cannot also have their own
+``[uncertain.<param>]`` table. The file's sha256 is part of the config's identity: a study
+resumed against a changed posterior refuses the old shards.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tumblemc.model.params import NUMERIC_FIELDS, RANGES
+from tumblemc.study.checks import ConfigError, check_table, config_error
+from tumblemc.study.distributions import UNCERTAIN_PARAMS
+
+#: the mc stream's slot of the posterior row (after every parameter's slot: append only)
+POSTERIOR_SLOT = len(UNCERTAIN_PARAMS)
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """A posterior file: its path, sha256, parameter names and draws (n_draws x n_params)."""
+
+    file: str
+    sha256: str
+    params: tuple[str, ...]
+    draws: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        """The config JSON form: ``{"file": ..., "sha256": ...}``."""
+        return {"file": self.file, "sha256": self.sha256}
+
+    def rows(self, u: np.ndarray) -> np.ndarray:
+        """The draws picked by uniforms ``u`` in (0, 1): row ``floor(u x n)``."""
+        n = len(self.draws)
+        return self.draws[np.minimum((np.asarray(u) * n).astype(np.int64), n - 1)]
+
+
+def load_posterior(value: Any, base: Path | None = None) -> Posterior:
+    """Parse ``uncertain.posterior``: a path (relative to ``base``, the TOML's folder) or ``{file, sha256}``."""
+    key = "uncertain.posterior"
+    want = None
+    if isinstance(value, dict):
+        t = check_table(key, value)
+        if set(t) - {"file", "sha256"} or "file" not in t:
+            raise ConfigError(key, f"{key} = {value!r} is not allowed (allowed: a path, or {{file = ..., sha256 = ...}})")
+        value, want = t["file"], t.get("sha256")
+    if not isinstance(value, str) or not value:
+        raise config_error(key, value, "is not a path", "a calibration file written by tumblemc calibrate --out")
+    path = Path(value)
+    if not path.is_absolute() and base is not None:
+        path = base / path
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise ConfigError(key, f"{key} = {value!r}: cannot read {path} ({e.strerror})") from None
+    digest = hashlib.sha256(raw).hexdigest()
+    if want is not None and want != digest:
+        raise ConfigError(key, f"{key}: {path} has changed (sha256 {digest[:12]}..., the study was written with {str(want)[:12]}...)")
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path) as ds:
+            names = tuple(n for n in ds.data_vars if ds[n].dims == ("sample",) and n in NUMERIC_FIELDS)
+            draws = np.stack([ds[n].values.astype(float) for n in names], 1) if names else np.empty((0, 0))
+    except (OSError, ValueError) as e:
+        raise ConfigError(key, f"{key}: {path} is not a netCDF calibration file ({e})") from None
+    if not names or len(draws) == 0:
+        raise ConfigError(key, f"{key}: {path} has no posterior draws (allowed: variables named after Params fields along 'sample')")
+    for j, n in enumerate(names):
+        r = RANGES[n]
+        bad = ~((draws[:, j] >= r.lo) & (draws[:, j] <= r.hi) & np.isfinite(draws[:, j]))
+        if bad.any():
+            raise ConfigError(key, f"{key}: {path}: {n} has {int(bad.sum())} draws outside {r.lo}..{r.hi} {r.units}")
+    return Posterior(str(path.resolve()), digest, names, draws)
+
+
+def split_posterior(table: Any, base: Path | None) -> tuple[Any, Posterior | None]:
+    """The ``[uncertain]`` table without its ``posterior`` key, and the posterior it names."""
+    if not isinstance(table, dict) or "posterior" not in table:
+        return table, None
+    rest = {k: v for k, v in table.items() if k != "posterior"}
+    post = load_posterior(table["posterior"], base)
+    both = sorted(set(post.params) & set(rest))
+    if both:
+        msg = f"uncertain.{both[0]} is also in the posterior {post.file} (allowed: one source per parameter)"
+        raise ConfigError(f"uncertain.{both[0]}", msg)
+    return rest, post
+
+
+__all__ = ["POSTERIOR_SLOT", "Posterior", "load_posterior", "split_posterior"]
