@@ -92,3 +92,17 @@ def test_cli_calibrate(tmp_path, capsys) -> None:
     assert (tmp_path / "calib.png").exists()
     assert main(["calibrate", "speed", str(tmp_path / "tilt.csv"), "--free", "mu"]) == 2
     assert "its header is a static_tilt test, not speed" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_speed_calibration_with_the_simulator(tmp_path) -> None:
+    # speed against frequency on a 20 deg incline: slip above ~10 Hz makes it depend on mu
+    f = np.array([5.0, 15.0, 25.0, 35.0])
+    y = lab.step_out(f, mu=0.3, incline_deg=20.0, periods=4.0)["speed"].values
+    y = y + np.random.default_rng(0).normal(0.0, 0.3, f.size)
+    C.write_bench(tmp_path / "speed.csv", "freq_hz", "speed_mm_s", f, y)
+    post = C.calibrate(tmp_path / "speed.csv", ["mu"], {"mu": (0.15, 0.6)}, incline_deg=20.0, n_posterior=500)
+    lo, hi = np.quantile(post["mu"].values, [0.005, 0.995])
+    assert lo < 0.3 < hi
+    assert post.attrs["test"] == "speed" and post["fit"].attrs["units"] == "mm s-1"
+    assert len(post.attrs["jacobian_step_ratio"]) == 1

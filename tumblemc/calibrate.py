@@ -24,8 +24,11 @@ cost and coverage: it needs one Jacobian beyond the fit (``p + 1`` forward runs)
 residual bootstrap needs a fit per replicate and MCMC (emcee) thousands of forward runs,
 tens of minutes each with the simulator; its coverage is measured by
 ``tools/calibration_coverage.py`` (docs/calibration.md) on synthetic data. It is only as
-good as the linearisation: the diagnostics report the condition number of ``J^T J`` (in
-bound-width units) and flag the parameters whose spread the data do not halve.
+good as the linearisation: the Jacobian is taken at two steps (1e-3 and 1e-2 of the bound
+width) and, per parameter, the flatter one is used; parameters where they differ by more
+than 2x are flagged ``rough`` (the model has a kink or a jump there). The diagnostics also
+report the condition number of ``J^T J`` (in bound-width units) and flag the parameters
+whose spread the data do not halve (``undetermined``).
 
 The result is an xarray Dataset, one variable per free :class:`Params` field along
 ``sample`` (the posterior draws, the file a study samples from with
@@ -57,6 +60,7 @@ KINDS: dict[tuple[str, str], tuple[str, str, str, str]] = {
 }
 MODELS = ("simulate", "closed-form")
 N_POSTERIOR = 2000
+COARSE_STEP = 1e-2  # the second Jacobian's step, in bound widths (the fit's is 1e-3)
 UNDETERMINED_SHARE = 0.5  # the data determine a parameter when they halve the spread of its bounds (sd width/sqrt(12))
 
 
@@ -200,7 +204,21 @@ def calibrate(
     # precision: the data's J^T J / s^2 (J in bound-width units) plus the bounds as a weak
     # prior (the variance of a uniform on them, 1/12 in these units), so that a direction
     # the data do not determine keeps the spread of its bounds instead of collapsing
-    jtj = sol.jac.T @ sol.jac
+    # the forward model can be rough (a slip or a lift-off moves with the parameters): a
+    # second Jacobian at ten times the step; per parameter the flatter column is kept, so a
+    # kink makes the posterior wider, not narrower, and the two are reported
+    jac = np.array(sol.jac, dtype=float)
+    coarse = np.empty_like(jac)
+    for j in range(p):
+        dz = COARSE_STEP if sol.x[j] + COARSE_STEP <= 1.0 else -COARSE_STEP
+        z = sol.x.copy()
+        z[j] += dz
+        coarse[:, j] = (resid(z) - sol.fun) / dz
+    norm_f, norm_c = np.linalg.norm(jac, axis=0), np.linalg.norm(coarse, axis=0)
+    ratio = norm_f / np.where(norm_c > 0, norm_c, np.nan)
+    rough = [nm for nm, r in zip(names, ratio, strict=True) if not 0.5 <= r <= 2.0]
+    jac = np.where(norm_c < norm_f, coarse, jac)
+    jtj = jac.T @ jac
     cond = float(np.linalg.cond(jtj))
     cov_z = np.linalg.inv(jtj / max(s2, 1e-300) + 12.0 * np.eye(p))
     cov = cov_z * np.outer(width, width)
@@ -252,6 +270,8 @@ def calibrate(
             "optimizer_status": int(sol.status),
             "optimizer_message": str(sol.message),
             "undetermined": ",".join(undetermined),
+            "rough": ",".join(rough),
+            "jacobian_step_ratio": ratio.tolist(),
             "posterior": "Laplace at the least-squares optimum, truncated to the bounds",
             "source": f"tumblemc {__version__}",
             "Conventions": "CF-1.10",
