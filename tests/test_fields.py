@@ -91,6 +91,11 @@ def test_sequence_continues_the_field_and_counts_revolutions() -> None:
     assert inp.freq_hz == pytest.approx(2.3 / 1.3)
 
 
+def test_periods_of_a_rotating_program() -> None:
+    inp = run_inputs(field=Rotating(20.0, 4.0, axis=(0, 1, 0)), periods=3)
+    assert inp.duration_s == pytest.approx(0.75) and inp.freq_hz == pytest.approx(4.0)
+
+
 def test_work_bound_of_a_program() -> None:
     seq = Sequence((0.5, Rotating(20.0, 1.0)), (1.0, Static(10.0, (0, 0, -1))))
     spec = prepare(run_inputs(field=seq))
@@ -133,7 +138,7 @@ def test_static_field_holds_still_and_ledger_balances() -> None:
     [
         ({"field": Static(5.0), "field_mT": 5.0}, "both given"),
         ({"field": "static"}, "field='static' is not allowed"),
-        ({"field": Rotating(5.0, 1.0), "periods": 2}, "periods=2 is not allowed"),
+        ({"field": Static(5.0), "periods": 2}, "periods=2 is not allowed with a Static program"),
     ],
 )
 def test_bad_field_inputs(kwargs, match) -> None:

@@ -12,9 +12,8 @@ import xarray as xr
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import config_hash, load_config
 from tumblemc.study.design import design
-from tumblemc.study.distributions import UNCERTAIN_PARAMS
+from tumblemc.study.distributions import POSTERIOR_SLOT, UNCERTAIN_PARAMS, mc_slot
 from tumblemc.study.engine import run_study
-from tumblemc.study.posterior import POSTERIOR_SLOT
 
 
 def _posterior(path: Path, n: int = 50, seed: int = 0) -> Path:
@@ -54,7 +53,7 @@ def test_each_run_takes_a_whole_draw_keyed_by_the_run(tmp_path: Path) -> None:
     np.testing.assert_array_equal(more["F_elect"].values.reshape(2, 9)[:, :5].ravel(), des["F_elect"].values)
     no_mu = design(load_config(_config(tmp_path, uncertain={"posterior": str(tmp_path / "calib.nc")})))
     np.testing.assert_array_equal(no_mu["offset_deg"].values, des["offset_deg"].values)
-    assert POSTERIOR_SLOT == len(UNCERTAIN_PARAMS)
+    assert POSTERIOR_SLOT == 15 and POSTERIOR_SLOT not in {mc_slot(q) for q in UNCERTAIN_PARAMS}
 
 
 def test_the_posterior_is_part_of_the_identity(tmp_path: Path) -> None:

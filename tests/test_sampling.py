@@ -216,7 +216,7 @@ def test_incline_range_is_inclusive_and_canonical() -> None:
 def test_physical_ranges_match_params_validation() -> None:
     """RANGES mirrors Params.__post_init__: bounds allowed or refused alike."""
     numeric = [f for f in Params.field_names() if f not in ("offset_axis", "electrostatic_in_flight", "line_adhesion", "adhesion_release")]
-    assert set(UNCERTAIN_PARAMS) == {*numeric, "field_mT"}
+    assert set(UNCERTAIN_PARAMS) == {*numeric, "field_mT", "axis_yaw_deg", "axis_pitch_deg"}
     base = PRESETS["paper"]
     for name in numeric:
         r = RANGES[name]

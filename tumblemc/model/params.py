@@ -134,6 +134,9 @@ RANGES: dict[str, PhysicalRange] = {
     "duration_s": PhysicalRange(0.0, 1e4, False, False, "s", "simulated time"),
     "periods": PhysicalRange(0.0, 1e6, True, False, "1", "simulated time in field periods"),
     "dt": PhysicalRange(1e-9, 0.1, False, False, "s", "time step"),
+    # pointing error of a study's field axis (tumblemc.study.fieldcfg), nominal 0
+    "axis_yaw_deg": PhysicalRange(-90.0, 90.0, False, False, "degree", "field axis turned about world z"),
+    "axis_pitch_deg": PhysicalRange(-90.0, 90.0, False, False, "degree", "field axis tilted out of the horizontal plane"),
     "lift_m": PhysicalRange(0.0, 1.0, False, False, "m", "initial height above the resting pose"),
 }
 

@@ -20,6 +20,7 @@ from tumblemc.kernels import batch as KB
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import empty_record, make_buffers
 from tumblemc.model.energy import field_work_bound
+from tumblemc.model.fields import Rotating
 from tumblemc.model.outcome import climbed
 from tumblemc.model.params import SolverOptions
 from tumblemc.model.run import RunSpec, initial_contact, prepare, run_inputs
@@ -57,6 +58,7 @@ class RunRow(TypedDict, total=False):
     line_adhesion: str
     peel_length: float
     adhesion_release: str
+    field: Rotating
 
 
 @dataclass(frozen=True)
@@ -134,14 +136,14 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
             continue
         specs[i] = spec
     # runs on the same time grid go through the kernel together
-    groups: dict[tuple[int, int, int], list[int]] = {}
+    groups: dict[tuple[int, int, int, int], list[int]] = {}
     for i, spec in specs.items():
         i0 = round(grid.transient_periods / spec.freq_hz / spec.dt)
         stride, i0_row = _record_stride(spec.n_steps, i0)
-        groups.setdefault((spec.n_steps, stride, i0_row), []).append(i)
+        groups.setdefault((spec.n_steps, stride, i0_row, spec.prm.size), []).append(i)
     geo = shp.geometry()
     buf = make_buffers(n_unknowns(geo.pstart))
-    for (n_steps, stride, i0_row), idx in sorted(groups.items()):
+    for (n_steps, stride, i0_row, _), idx in sorted(groups.items()):
         ss = [specs[i] for i in idx]
         prms = np.ascontiguousarray(np.stack([s.prm for s in ss]))
         states = np.ascontiguousarray(np.stack([s.state0 for s in ss]))

@@ -175,8 +175,8 @@ def run_inputs(
                 f"field={describe(field)!r} and field_mT={field_mT!r}, freq_hz={freq_hz!r} are both given "
                 "(allowed: a field program or the paper's field_mT/freq_hz shorthand)"
             )
-        if periods is not None:
-            raise ValueError(f"periods={periods!r} is not allowed with a field program (allowed: duration_s)")
+        if periods is not None and not isinstance(field, Rotating):
+            raise ValueError(f"periods={periods!r} is not allowed with a {type(field).__name__} program (allowed: duration_s)")
         if duration_s is None and isinstance(field, Sequence):
             duration_s = field.duration_s
         if isinstance(field, Rotating) and field == Rotating(field.mT, field.hz):
@@ -184,6 +184,8 @@ def run_inputs(
         else:
             program = compile_program(field, incline_deg)
             field_mT = peak_mT(program)
+            if isinstance(field, Rotating):  # for periods; the mean rate below is the same
+                freq_hz = field.hz
     field_mT = RANGES["field_mT"].check("field_mT", 20.0 if field_mT is None else field_mT)
     freq_hz = RANGES["freq_hz"].check("freq_hz", 1.0 if freq_hz is None else freq_hz)
     if periods is not None:

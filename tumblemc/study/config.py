@@ -49,7 +49,11 @@ ci_level             confidence level of the intervals (default 0.95)
                      ``ratio_abs_tol + ratio_rel_tol * |fine ratio|`` (0.05, 0.1)
 [execution]          how to run, not what: ``batch_size`` (8), ``max_in_flight``,
                      ``workers``; excluded from :func:`config_hash`
-[uncertain.<param>]  one table per uncertain parameter (below)
+[uncertain.<param>]  one table per uncertain parameter (below); ``posterior = "calib.nc"``
+                     samples a calibration posterior jointly (study/posterior.py)
+[field]              the field program: ``kind = "paper"`` (default) or ``"rotating"``
+                     with ``axis``, ``start``, ``cone_deg``, ``bias_mT`` (study/fieldcfg.py);
+                     ``axis_yaw_deg``/``axis_pitch_deg`` may be uncertain (pointing error)
 ===================  ===================================================================
 
 ``<param>`` is any numeric field of :class:`~tumblemc.params.Params` (``mass``,
@@ -124,7 +128,8 @@ from __future__ import annotations
 import re
 import tomllib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as dc_field
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -148,6 +153,7 @@ from tumblemc.study.checks import (
     config_error,
 )
 from tumblemc.study.distributions import DEFAULT_UNCERTAIN, Uncertain, nominal_value, parse_uncertain
+from tumblemc.study.fieldcfg import FieldConfig, parse_field
 from tumblemc.study.posterior import Posterior, split_posterior
 
 #: version of the seed derivation and sampler mapping; part of every config hash
@@ -219,10 +225,11 @@ class StudyConfig:
     sampler: str = "mc"
     ci: str = "wilson"
     ci_level: float = 0.95
-    check: CheckConfig = field(default_factory=CheckConfig)
-    execution: ExecutionConfig = field(default_factory=ExecutionConfig)
+    check: CheckConfig = dc_field(default_factory=CheckConfig)
+    execution: ExecutionConfig = dc_field(default_factory=ExecutionConfig)
     uncertain: tuple[Uncertain, ...] = ()
     posterior: Posterior | None = None  # [uncertain] posterior = "calib.nc" (study/posterior.py)
+    field: FieldConfig = dc_field(default_factory=FieldConfig)  # [field] (study/fieldcfg.py)
 
     @property
     def cell_dims(self) -> tuple[str, ...]:
@@ -300,6 +307,7 @@ _COMMON_KEYS = (
     "check",
     "execution",
     "uncertain",
+    "field",
 )
 
 
@@ -416,6 +424,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
         max_in_flight=None if et.get("max_in_flight") is None else check_int("execution.max_in_flight", et["max_in_flight"], 1, 10**6),
         workers=None if et.get("workers") is None else check_int("execution.workers", et["workers"], 1, 10**5),
     )
+    field_cfg = parse_field(d.get("field", {}))
     unc_table, posterior = split_posterior(d.get("uncertain", DEFAULT_UNCERTAIN), base)
     uncertain = parse_uncertain(unc_table)
     if posterior is not None and sampler != "mc":
@@ -447,6 +456,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
         execution=execution,
         uncertain=uncertain,
         posterior=posterior,
+        field=field_cfg,
     )
     for u in uncertain:  # every nominal the study will meet
         for p in presets:

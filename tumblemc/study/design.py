@@ -43,8 +43,8 @@ from tumblemc.model.run import DEFAULT_DT
 from tumblemc.schema import COORD_ATTRS, sampled_name
 from tumblemc.study.checks import is_number
 from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells, config_hash, config_to_json
-from tumblemc.study.distributions import U_EPS, UNCERTAIN_PARAMS, ParamDistribution, nominal_value
-from tumblemc.study.posterior import POSTERIOR_SLOT
+from tumblemc.study.distributions import POSTERIOR_SLOT, U_EPS, UNCERTAIN_PARAMS, ParamDistribution, mc_slot, nominal_value
+from tumblemc.study.fieldcfg import AXIS_ERRORS, program
 
 
 def _canonical_cell(cell: Mapping[str, Any]) -> str:
@@ -78,7 +78,7 @@ def _cell_words(cell: Mapping[str, Any]) -> list[int]:
 def _mc_uniforms(seed: int, words: list[int], n: int, slots: list[int]) -> np.ndarray:
     """(n, len(slots)) uniforms, one SeedSequence per run, one slot per parameter."""
     out = np.empty((n, len(slots)))
-    width = POSTERIOR_SLOT + 1  # generate_state is prefix-stable: the parameter slots are as before the posterior's
+    width = len(UNCERTAIN_PARAMS) + 1  # every slot and the posterior's; generate_state is prefix-stable
     for s in range(n):
         state = np.random.SeedSequence([seed, *words, s]).generate_state(width, np.uint64)
         out[s] = ((state[slots] >> np.uint64(11)).astype(float) + 0.5) * 2.0**-53
@@ -95,7 +95,7 @@ def _cell_uniforms(config: StudyConfig, cell: Mapping[str, Any]) -> np.ndarray:
         return np.empty((n, 0))
     words = _cell_words(cell)
     if config.sampler == "mc":
-        return _mc_uniforms(config.seed, words, n, [UNCERTAIN_PARAMS.index(u.param) for u in config.uncertain])
+        return _mc_uniforms(config.seed, words, n, [mc_slot(u.param) for u in config.uncertain])
     rng = np.random.default_rng(np.random.SeedSequence([config.seed, *words]))
     if config.sampler == "sobol":
         u = qmc.Sobol(d, scramble=True, rng=rng).random_base2(max(0, math.ceil(math.log2(n))))[:n]
@@ -222,7 +222,7 @@ def params_for_run(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> 
         ``{param: value}`` in the units of :class:`~tumblemc.params.Params`, for
         ``simulate(**overrides)`` or ``PRESETS[substrate].replace(**overrides)``.
     """
-    return {p: float(_scalar(row, p)) for p in config.uncertain_names if p != "field_mT"}
+    return {p: float(_scalar(row, p)) for p in config.uncertain_names if p != "field_mT" and p not in AXIS_ERRORS}
 
 
 def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRow:
@@ -235,8 +235,14 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRo
     out: dict[str, Any] = {"preset": str(_scalar(row, "substrate"))}
     if "incline_deg" in row:  # a critical-incline run has none: the engine sets it
         out["incline_deg"] = float(_scalar(row, "incline_deg"))
-    out["field_mT"] = float(_scalar(row, field_name))
-    out["freq_hz"] = float(_scalar(row, "freq_hz"))
+    mT, hz = float(_scalar(row, field_name)), float(_scalar(row, "freq_hz"))
+    names = config.uncertain_names
+    errs = [float(_scalar(row, e)) if e in names else None for e in AXIS_ERRORS]
+    prog = program(config.field, mT, hz, errs[0], errs[1])
+    if prog is None:  # the paper's field: the shorthand (records as before programs)
+        out["field_mT"], out["freq_hz"] = mT, hz
+    else:
+        out["field"] = prog
     return cast(RunRow, {**out, **params_for_run(config, row)})
 
 

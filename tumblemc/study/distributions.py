@@ -38,11 +38,22 @@ U_EPS = 2.0**-53  # uniforms are kept in [eps, 1 - eps] so every ppf is finite
 #: ``mc`` sampler's slots: part of the sampling scheme, append only (the Params fields
 #: added after field_mT go after it, so that every earlier parameter keeps its slot)
 _ADDED_AFTER_FIELD = ("line_contact_width", "peel_length")
+#: the mc stream's slot of a calibration posterior's row (study/posterior.py), taken when
+#: UNCERTAIN_PARAMS had this many entries; parameters added since sit after it
+POSTERIOR_SLOT = 15
 UNCERTAIN_PARAMS: tuple[str, ...] = (
     *(f for f in NUMERIC_FIELDS if f not in _ADDED_AFTER_FIELD),
     "field_mT",
     *_ADDED_AFTER_FIELD,
+    "axis_yaw_deg",  # the field axis's pointing error (study/fieldcfg.py), slots after the posterior's
+    "axis_pitch_deg",
 )
+
+
+def mc_slot(param: str) -> int:
+    """The ``mc`` stream slot of an uncertain parameter (its index, skipping the posterior's slot)."""
+    i = UNCERTAIN_PARAMS.index(param)
+    return i if i < POSTERIOR_SLOT else i + 1
 
 
 #: the uncertainty assumed when a config has no ``[uncertain]`` table
@@ -279,4 +290,6 @@ def nominal_value(param: str, substrate: str, field_mT: float) -> float:
     """Nominal value of an uncertain parameter in a cell (the preset's, or the cell field)."""
     if param == "field_mT":
         return float(field_mT)
+    if param in ("axis_yaw_deg", "axis_pitch_deg"):
+        return 0.0
     return float(getattr(PRESETS[substrate], param))

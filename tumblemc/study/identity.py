@@ -11,6 +11,8 @@ import hashlib
 import json
 from typing import TYPE_CHECKING
 
+from tumblemc.study.fieldcfg import FieldConfig
+
 if TYPE_CHECKING:
     from tumblemc.study.config import StudyConfig
 
@@ -18,7 +20,12 @@ if TYPE_CHECKING:
 #: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
 #: config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
 #: with it written out, so an earlier paper-form run's shards are refused, not mixed in
-ADDED_KEYS: dict[str, object] = {"rotation": "paper", "check.ratio_abs_tol": 0.05, "check.ratio_rel_tol": 0.1}
+ADDED_KEYS: dict[str, object] = {
+    "rotation": "paper",
+    "check.ratio_abs_tol": 0.05,
+    "check.ratio_rel_tol": 0.1,
+    "field": dataclasses.asdict(FieldConfig()),
+}
 
 
 def config_to_json(config: StudyConfig) -> str:

@@ -3,9 +3,9 @@
 The file is what :func:`tumblemc.calibrate.calibrate` writes: one variable per
 :class:`~tumblemc.model.params.Params` field along ``sample``. Each run takes one whole
 draw (row) of it, so the correlations the calibration found are kept. The row is chosen by
-a run-keyed uniform (the ``mc`` stream's slot :data:`POSTERIOR_SLOT`, after every parameter
-slot), so a run gets the same draw whatever the workers or batch sizes, and whatever the
-other uncertain parameters. Parameters in the posterior cannot also have their own
+a run-keyed uniform (the ``mc`` stream's slot :data:`POSTERIOR_SLOT`), so a run gets the
+same draw whatever the workers or batch sizes, and whatever the other uncertain
+parameters. Parameters in the posterior cannot also have their own
 ``[uncertain.<param>]`` table. The file's sha256 is part of the config's identity: a study
 resumed against a changed posterior refuses the old shards.
 """
@@ -21,10 +21,7 @@ import numpy as np
 
 from tumblemc.model.params import NUMERIC_FIELDS, RANGES
 from tumblemc.study.checks import ConfigError, check_table, config_error
-from tumblemc.study.distributions import UNCERTAIN_PARAMS
-
-#: the mc stream's slot of the posterior row (after every parameter's slot: append only)
-POSTERIOR_SLOT = len(UNCERTAIN_PARAMS)
+from tumblemc.study.distributions import POSTERIOR_SLOT
 
 
 @dataclass(frozen=True)
