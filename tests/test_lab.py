@@ -95,3 +95,15 @@ def test_cli_lab(tmp_path, capsys) -> None:
     assert main(["lab", "static-tilt", "--field-mT", "3:x:1"]) == 2
     assert "--field-mT='3:x:1' is not allowed" in capsys.readouterr().err
     assert main(["lab", "steer", "--set", "mu=-1"]) == 2
+
+
+def test_critical_field_per_posterior_draw(tmp_path) -> None:
+    path = tmp_path / "post.nc"
+    xr.Dataset({"F_elect": ("sample", [1e-6, 6e-6, 3e-6]), "note": ("x", [0.0])}).to_netcdf(path)
+    draws = lab.posterior_samples(str(path), 2)
+    assert draws == [{"F_elect": 1e-6}, {"F_elect": 6e-6}]
+    res = lab.critical_field_samples(draws, 1.0, 0.0, lo_mT=1.0, hi_mT=20.0, tol_mT=0.5)
+    c = res["critical_mT"].values
+    assert res.sizes["sample"] == 2 and np.all(np.isfinite(c))
+    assert c[1] > c[0]  # a heavier electrostatic load needs a stronger field
+    np.testing.assert_array_equal(res["F_elect"].values, [1e-6, 6e-6])

@@ -72,6 +72,8 @@ def add_lab_parser(sub: Any, common: Any) -> None:
     p.add_argument("--lo-mT", type=float, default=0.5, help="bracket low end, mT (default: 0.5)")
     p.add_argument("--hi-mT", type=float, default=40.0, help="bracket high end, mT (default: 40)")
     p.add_argument("--tol-mT", type=float, default=0.1, help="bracket width to stop at, mT (default: 0.1)")
+    p.add_argument("--posterior", default=None, help="a calibration file: one bisection per posterior draw")
+    p.add_argument("--samples", type=int, default=20, help="posterior draws to use with --posterior (default: 20)")
     base(p, "critical_field.nc")
 
     p = ls.add_parser("step-out", help="speed and phase lag against frequency", description="Speed and phase lag against frequency.")
@@ -165,9 +167,17 @@ def cmd_lab(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
         cols = ["tilt_deg", "tilt_spread_deg", "tilt_closed_form_deg", "tilt_min_deg", "tilt_max_deg", "status"]
         print(ds[cols].to_dataframe().round(3).to_string())
     elif c == "critical-field":
-        ds = lab.critical_field(args.freq_hz, args.incline_deg, lo_mT=args.lo_mT, hi_mT=args.hi_mT, tol_mT=args.tol_mT, **kw)
-        bracket = ds["bracket_mT"].values.round(4).tolist()
-        print(f"critical field {float(ds['critical_mT']):.3g} mT (bracket {bracket} mT, {int(ds['n_runs'])} runs)")
+        bis = dict(lo_mT=args.lo_mT, hi_mT=args.hi_mT, tol_mT=args.tol_mT, **kw)
+        if args.posterior:
+            draws = lab.posterior_samples(args.posterior, args.samples)
+            ds = lab.critical_field_samples(draws, args.freq_hz, args.incline_deg, **bis)
+            lo, hi = ds["critical_mT_5_95"].values
+            med = float(ds["critical_mT_median"])
+            print(f"critical field over {ds.sizes['sample']} posterior draws: median {med:.3g} mT, 5-95% {lo:.3g}-{hi:.3g} mT")
+        else:
+            ds = lab.critical_field(args.freq_hz, args.incline_deg, **bis)
+            bracket = ds["bracket_mT"].values.round(4).tolist()
+            print(f"critical field {float(ds['critical_mT']):.3g} mT (bracket {bracket} mT, {int(ds['n_runs'])} runs)")
     elif c == "step-out":
         ds = lab.step_out(parse_values("--freq-hz", args.freq_hz), args.field_mT, args.incline_deg, progress=True, **kw)
         print(ds[["speed", "progress_ratio", "phase_lag_deg", "status"]].to_dataframe().round(3).to_string())

@@ -235,6 +235,48 @@ def critical_field(
     return res
 
 
+def posterior_samples(path: str, n: int) -> list[dict[str, float]]:
+    """The first ``n`` draws of a calibration posterior file as Params overrides (one dict per draw)."""
+    from tumblemc.model.params import NUMERIC_FIELDS
+
+    with xr.open_dataset(path) as ds:
+        names = [v for v in ds.data_vars if ds[v].dims == ("sample",) and v in NUMERIC_FIELDS]
+        if not names:
+            raise ValueError(f"{path}: no posterior draws (allowed: a file written by tumblemc calibrate)")
+        k = min(int(n), ds.sizes["sample"])
+        return [{v: float(ds[v].values[i]) for v in names} for i in range(k)]
+
+
+def critical_field_samples(samples: Seq[dict[str, Any]], freq_hz: float = 1.0, incline_deg: float = 0.0, **kwargs: Any) -> xr.Dataset:
+    """:func:`critical_field` once per parameter sample (Params overrides, e.g. :func:`posterior_samples`).
+
+    Returns the per-sample critical fields along ``sample`` (with the sampled values) and
+    their median and 5-95% range.
+    """
+    if not samples:
+        raise ValueError("samples=[] is empty (allowed: one or more dicts of Params overrides)")
+    runs = [critical_field(freq_hz, incline_deg, **kwargs, **smp) for smp in samples]
+    crit = np.array([float(r["critical_mT"]) for r in runs])
+    res = xr.Dataset(
+        {
+            "critical_mT": ("sample", crit, {"units": "mT", "long_name": "smallest field that tumbles, per sample"}),
+            "n_runs": ("sample", np.array([int(r["n_runs"]) for r in runs])),
+            "critical_mT_median": ((), float(np.nanmedian(crit)) if np.isfinite(crit).any() else math.nan, {"units": "mT"}),
+            "critical_mT_5_95": (
+                ("q",),
+                np.nanpercentile(crit, [5, 95]) if np.isfinite(crit).any() else np.full(2, np.nan),
+                {"units": "mT"},
+            ),
+        },
+        coords={"sample": np.arange(len(samples)), "q": [5, 95]},
+    )
+    for name in samples[0]:
+        res[name] = ("sample", np.array([smp[name] for smp in samples]))
+    res.attrs.update(runs[0].attrs)
+    res.attrs["protocol"] = "critical_field_samples"
+    return res
+
+
 def phase_lag_deg(ds: xr.Dataset, t0: float) -> float:
     """Mean angle (deg, in (-180, 180]) by which the magnetisation trails the field in the rotation plane, after ``t0``.
 
@@ -350,6 +392,8 @@ def steering(
 
 __all__ = [
     "critical_field",
+    "critical_field_samples",
+    "posterior_samples",
     "cuboid_tilt_balance",
     "equilibrium_tilts",
     "phase_lag_deg",
