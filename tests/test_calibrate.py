@@ -76,6 +76,8 @@ def test_bad_free_parameters(tmp_path) -> None:
         C.calibrate(tmp_path / "t.csv", ["mass_kg"], model="closed-form")
     with pytest.raises(ValueError, match="bounds of mu"):
         C.calibrate(tmp_path / "t.csv", ["mu"], {"mu": (1.0, 0.5)}, model="closed-form")
+    with pytest.raises(ValueError, match=r"bounds of F_elect = \(-1e-06, 1e-05\) leave the physical range"):
+        C.calibrate(tmp_path / "t.csv", ["F_elect"], {"F_elect": (-1e-6, 1e-5)}, model="closed-form")
     with pytest.raises(ValueError, match="critical-incline test is read but not fitted"):
         C.forward_model(C.BenchData("critical_incline", "incline_deg", "climbed", "1", np.zeros(2), np.zeros(2), "f"))
 

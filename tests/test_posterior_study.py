@@ -102,3 +102,18 @@ def test_study_runs_from_a_posterior(tmp_path: Path) -> None:
     with xr.open_dataset(res.path, group="runs") as runs:
         assert "F_elect" in runs and "offset_deg" in runs and runs.sizes["run"] == 10
         assert np.all(runs["status"].values == 0)
+
+
+def test_posterior_of_another_robot_is_refused(tmp_path: Path) -> None:
+    path = _posterior(tmp_path / "calib.nc")
+    ds = xr.load_dataset(path)
+    ds.attrs.update(shape="cuboid", preset="aluminum")
+    ds.to_netcdf(tmp_path / "al.nc")
+    d = _config(tmp_path)
+    d["uncertain"]["posterior"] = str(tmp_path / "al.nc")
+    with pytest.raises(ConfigError, match="calibrated for preset 'aluminum'; the study has presets \\['paper'\\]"):
+        load_config(d)
+    from tumblemc import lab
+
+    with pytest.raises(ValueError, match="calibrated for preset 'aluminum', not 'paper'"):
+        lab.posterior_samples(str(tmp_path / "al.nc"), 3, "cuboid", "paper")

@@ -169,7 +169,7 @@ def cmd_lab(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
     elif c == "critical-field":
         bis = dict(lo_mT=args.lo_mT, hi_mT=args.hi_mT, tol_mT=args.tol_mT, **kw)
         if args.posterior:
-            draws = lab.posterior_samples(args.posterior, args.samples)
+            draws = lab.posterior_samples(args.posterior, args.samples, args.shape, args.preset)
             ds = lab.critical_field_samples(draws, args.freq_hz, args.incline_deg, **bis)
             lo, hi = ds["critical_mT_5_95"].values
             med = float(ds["critical_mT_median"])

@@ -235,11 +235,18 @@ def critical_field(
     return res
 
 
-def posterior_samples(path: str, n: int) -> list[dict[str, float]]:
-    """The first ``n`` draws of a calibration posterior file as Params overrides (one dict per draw)."""
+def posterior_samples(path: str, n: int, shape: str | None = None, preset: str | None = None) -> list[dict[str, float]]:
+    """The first ``n`` draws of a calibration posterior file as Params overrides (one dict per draw).
+
+    ``shape``/``preset``: refuse a file calibrated for another robot (its attributes).
+    """
     from tumblemc.model.params import NUMERIC_FIELDS
 
     with xr.open_dataset(path) as ds:
+        for key, want in (("shape", shape), ("preset", preset)):
+            have = ds.attrs.get(key)
+            if want is not None and have is not None and have != want:
+                raise ValueError(f"{path} was calibrated for {key} {have!r}, not {want!r} (allowed: a posterior of the same robot)")
         names = [v for v in ds.data_vars if ds[v].dims == ("sample",) and v in NUMERIC_FIELDS]
         if not names:
             raise ValueError(f"{path}: no posterior draws (allowed: a file written by tumblemc calibrate)")

@@ -427,6 +427,8 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     field_cfg = parse_field(d.get("field", {}))
     unc_table, posterior = split_posterior(d.get("uncertain", DEFAULT_UNCERTAIN), base)
     uncertain = parse_uncertain(unc_table)
+    if posterior is not None:
+        posterior.check_matches(shapes, presets)
     if posterior is not None and sampler != "mc":
         raise ConfigError("sampler", f"sampler={sampler!r} does not sample a posterior (allowed: mc with uncertain.posterior)")
 

@@ -32,6 +32,15 @@ class Posterior:
     sha256: str
     params: tuple[str, ...]
     draws: np.ndarray
+    shape: str = ""  # the robot and preset it was calibrated for (file attributes; "" if absent)
+    preset: str = ""
+
+    def check_matches(self, shapes: tuple[str, ...], presets: tuple[str, ...]) -> None:
+        """Refuse a study of other robots than the one the posterior was calibrated for."""
+        for key, mine, theirs in (("shapes", self.shape, shapes), ("presets", self.preset, presets)):
+            if mine and set(theirs) != {mine}:
+                msg = f"uncertain.posterior {self.file} was calibrated for {key[:-1]} {mine!r}; the study has {key} {list(theirs)}"
+                raise ConfigError(key, f"{msg} (allowed: [{mine!r}])")
 
     def to_dict(self) -> dict[str, Any]:
         """The config JSON form: ``{"file": ..., "sha256": ...}``."""
@@ -70,6 +79,7 @@ def load_posterior(value: Any, base: Path | None = None) -> Posterior:
         with xr.open_dataset(path) as ds:
             names = tuple(n for n in ds.data_vars if ds[n].dims == ("sample",) and n in NUMERIC_FIELDS)
             draws = np.stack([ds[n].values.astype(float) for n in names], 1) if names else np.empty((0, 0))
+            shape, preset = str(ds.attrs.get("shape", "")), str(ds.attrs.get("preset", ""))
     except (OSError, ValueError) as e:
         raise ConfigError(key, f"{key}: {path} is not a netCDF calibration file ({e})") from None
     if not names or len(draws) == 0:
@@ -79,7 +89,7 @@ def load_posterior(value: Any, base: Path | None = None) -> Posterior:
         bad = ~((draws[:, j] >= r.lo) & (draws[:, j] <= r.hi) & np.isfinite(draws[:, j]))
         if bad.any():
             raise ConfigError(key, f"{key}: {path}: {n} has {int(bad.sum())} draws outside {r.lo}..{r.hi} {r.units}")
-    return Posterior(str(path.resolve()), digest, names, draws)
+    return Posterior(str(path.resolve()), digest, names, draws, shape, preset)
 
 
 def split_posterior(table: Any, base: Path | None) -> tuple[Any, Posterior | None]:
