@@ -69,11 +69,20 @@ def test_steering_turns_the_heading_by_90_deg(preset: str) -> None:
     assert float(ds["max_height"]) < 1e-3  # no hop: the field turns without a jump
 
 
-def test_step_out_and_critical_field() -> None:
-    so = lab.step_out([1.0, 10.0], periods=3.0)
+def test_step_out_agrees_with_an_independent_bisection() -> None:
+    # paper robot, 20 mT: it follows to about 238 Hz (docs/lab.md)
+    so = lab.step_out([1.0, 10.0, 100.0, 200.0, 230.0, 260.0, 300.0])
     assert np.all(so["status"].values == 0)
     assert so["progress_ratio"].values[0] == pytest.approx(1.0, abs=0.05)
     assert np.all(np.abs(so["phase_lag_deg"].values) < 180.0)
+    share = so["following_share"].values
+    assert np.all(share[:5] > 0.5) and np.all(share[5:] < 0.5)
+    alone = lab.step_out_bisect(20.0, 300.0)
+    assert 230.0 < float(so["step_out_hz"]) < 260.0
+    assert abs(alone - float(so["step_out_hz"])) <= 0.02 * alone
+
+
+def test_critical_field() -> None:
     cf = lab.critical_field(1.0, 0.0, lo_mT=1.0, hi_mT=20.0, tol_mT=0.5)
     c = float(cf["critical_mT"])
     assert 1.0 < c < 20.0 and np.diff(cf["bracket_mT"].values)[0] <= 0.5

@@ -14,8 +14,10 @@ Each protocol returns an xarray Dataset with units (and a ``protocol`` attribute
   (``docs/lab.md`` derives it).
 - :func:`critical_field`: the smallest field magnitude at which the robot tumbles (or,
   on an incline, climbs: progress ratio at least the threshold), by bisection.
-- :func:`step_out`: speed, progress ratio and phase lag against frequency, and the
-  step-out frequency (the first frequency at which the ratio falls below the threshold).
+- :func:`step_out`: speed, progress ratio, phase lag and the share of the field's turns
+  the magnet follows against frequency, and the step-out frequency (where the magnet
+  stops following: it makes less than half the field's turns), refined by bisection;
+  :func:`step_out_bisect` finds it by bisection alone.
 - :func:`steering`: roll about one world axis, then another; the heading turn is the angle
   between the centre of mass's displacements over the two legs.
 """
@@ -44,6 +46,7 @@ TILT_DT = 1.25e-5
 TILT_DURATION_S = 0.6
 TILT_SKIP_S = 0.1  # the first lift-off is left out of the detection
 LIFT_DEG = 0.5  # a robot that never tilts more than this stayed flat (held by adhesion)
+STEP_OUT_SHARE = 0.5  # a robot whose magnet makes less than this share of the field's turns stepped out
 
 
 def tilt_deg(ds: xr.Dataset) -> np.ndarray:
@@ -301,24 +304,79 @@ def phase_lag_deg(ds: xr.Dataset, t0: float) -> float:
     return (lag + 180.0) % 360.0 - 180.0
 
 
+def following_share(ds: xr.Dataset, t0: float) -> float:
+    """The share of the field's turns the magnetisation made after ``t0`` (1: it follows; 0: it stopped).
+
+    Angles in the plane normal to world x (the paper's field), unwrapped; a robot that
+    follows lags by a bounded angle, one that stepped out loses whole turns.
+    """
+    from tumblemc.model.params import magnetisation_dir
+
+    e_b = magnetisation_dir(float(ds.attrs["offset_deg"]), ds.attrs.get("offset_axis", (1.0, 0.0, 0.0)))
+    m = quat_to_matrix(ds["quaternion"].values) @ e_b
+    b = ds["field"].values
+    keep = ds["time"].values >= t0
+    turn_m = np.unwrap(np.arctan2(m[keep, 2], m[keep, 1]))
+    turn_b = np.unwrap(np.arctan2(b[keep, 2], b[keep, 1]))
+    field_turn = turn_b[-1] - turn_b[0]
+    return float((turn_m[-1] - turn_m[0]) / field_turn) if field_turn else math.nan
+
+
+def _follows(f: float, field_mT: float, incline_deg: float, shape: str, preset: str, periods: float, kw: dict) -> tuple[bool, xr.Dataset]:
+    ds = simulate(shape, preset, incline_deg, field_mT, float(f), periods=periods, **kw)
+    return following_share(ds, 1.0 / f) >= STEP_OUT_SHARE, ds
+
+
+def step_out_bisect(
+    lo_hz: float,
+    hi_hz: float,
+    field_mT: float = 20.0,
+    incline_deg: float = 0.0,
+    shape: str = "cuboid",
+    preset: str = "paper",
+    periods: float = 8.0,
+    rel_tol: float = 0.005,
+    **overrides: Any,
+) -> float:
+    """Step-out frequency by bisection between ``lo_hz`` (the robot follows) and ``hi_hz`` (it does not).
+
+    NaN when the bracket does not hold a crossing. With several crossings in the bracket
+    (the dynamics near step-out can be chaotic) it finds one of them.
+    """
+    args = (field_mT, incline_deg, shape, preset, periods, overrides)
+    if not (_follows(lo_hz, *args)[0] and not _follows(hi_hz, *args)[0]):
+        return math.nan
+    while hi_hz - lo_hz > rel_tol * hi_hz:
+        mid = 0.5 * (lo_hz + hi_hz)
+        lo_hz, hi_hz = (mid, hi_hz) if _follows(mid, *args)[0] else (lo_hz, mid)
+    return hi_hz
+
+
 def step_out(
     freq_hz: Seq[float],
     field_mT: float = 20.0,
     incline_deg: float = 0.0,
     shape: str = "cuboid",
     preset: str = "paper",
-    periods: float = 4.0,
+    periods: float = 8.0,
     threshold: float = 0.5,
+    refine: bool = True,
     progress: bool = False,
     **overrides: Any,
 ) -> xr.Dataset:
-    """Speed, progress ratio and phase lag against frequency; the step-out frequency.
+    """Speed, progress ratio, phase lag and following share against frequency; the step-out frequency.
 
-    ``step_out_hz`` is the first swept frequency whose progress ratio falls below
-    ``threshold`` after one that did not (NaN if none): refine the sweep around it.
+    The robot *follows* at a frequency when its magnetisation makes at least
+    :data:`STEP_OUT_SHARE` of the field's turns after the first period
+    (:func:`following_share`). ``step_out_hz`` is the first swept frequency where it does
+    not, after one where it does, refined (``refine``) by bisection between the two to
+    0.5%; NaN if the sweep holds no such pair. Near step-out the robot can follow and lose
+    turns alternately over a band of frequencies (docs/lab.md: 76-95 Hz for the paper
+    robot at 8 mT); ``last_following_hz``, the highest swept frequency it still follows,
+    shows that band's upper end.
     """
     freqs = _grid("freq_hz", freq_hz, 0.0, 10_000.0)
-    speed, ratio, lag, status = [], [], [], []
+    speed, ratio, lag, status, share = [], [], [], [], []
     for k, f in enumerate(freqs):
         if progress:
             print(f"step-out {k + 1}/{len(freqs)}: {f:g} Hz", flush=True)
@@ -328,20 +386,28 @@ def step_out(
         ratio.append(s["progress_ratio"])
         status.append(s["status"])
         lag.append(phase_lag_deg(ds, 1.0 / f))
-    ratio_a = np.asarray(ratio)
-    below = np.nonzero((ratio_a[1:] < threshold) & (ratio_a[:-1] >= threshold))[0]
+        share.append(following_share(ds, 1.0 / f))
+    follows = np.asarray(share) >= STEP_OUT_SHARE
+    first = np.nonzero(~follows[1:] & follows[:-1])[0]
+    so = math.nan
+    last = float(freqs[np.nonzero(follows)[0][-1]]) if follows.any() else math.nan  # above step_out_hz: an intermittent band
+    if first.size:
+        lo, hi = float(freqs[first[0]]), float(freqs[first[0] + 1])
+        so = step_out_bisect(lo, hi, field_mT, incline_deg, shape, preset, periods, **overrides) if refine else hi
     res = xr.Dataset(
         {
             "speed": ("freq_hz", np.asarray(speed), {"units": "mm s-1", "long_name": "mean uphill speed after one period"}),
-            "progress_ratio": ("freq_hz", ratio_a, {"units": "1"}),
+            "progress_ratio": ("freq_hz", np.asarray(ratio), {"units": "1"}),
             "phase_lag_deg": ("freq_hz", np.asarray(lag), {"units": "degree", "long_name": "field minus magnetisation angle"}),
+            "following_share": ("freq_hz", np.asarray(share), {"units": "1", "long_name": "share of the field's turns the magnet made"}),
             "status": ("freq_hz", np.asarray(status), {"units": "1"}),
-            "step_out_hz": ((), float(freqs[below[0] + 1]) if below.size else math.nan, {"units": "Hz"}),
+            "step_out_hz": ((), so, {"units": "Hz", "long_name": "first frequency the robot stops following (refined)"}),
+            "last_following_hz": ((), last, {"units": "Hz", "long_name": "highest swept frequency the robot still follows"}),
         },
         coords={"freq_hz": ("freq_hz", freqs, {"units": "Hz"})},
     )
     res.attrs.update(_attrs("step_out", shape, preset, incline_deg, overrides.get("dt"), periods, overrides))
-    res.attrs.update({"field_mT": float(field_mT), "threshold": threshold})
+    res.attrs.update({"field_mT": float(field_mT), "threshold": threshold, "step_out_share": STEP_OUT_SHARE})
     return res
 
 
@@ -402,6 +468,8 @@ __all__ = [
     "critical_field_samples",
     "posterior_samples",
     "cuboid_tilt_balance",
+    "following_share",
+    "step_out_bisect",
     "equilibrium_tilts",
     "phase_lag_deg",
     "static_tilt",

@@ -34,24 +34,28 @@ def plot_static_tilt(ds: xr.Dataset, path: str | os.PathLike[str] | None = None)
 
 
 def plot_step_out(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Speed and phase lag against frequency, with the step-out frequency marked."""
-    fig = Figure(figsize=(6.0, 5.0))
-    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    """Speed, phase lag and the share of the field's turns followed against frequency, with the step-out marked."""
+    fig = Figure(figsize=(6.0, 6.5))
+    ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     f = ds["freq_hz"].values
     ax1.plot(f, ds["speed"], "o-", ms=4, label="simulated")
-    ideal = ds["speed"].values / ds["progress_ratio"].values
-    ax1.plot(f, ideal, "--", color="0.5", lw=1, label="no-slip tumbling")
+    ax1.plot(f, ds["speed"].values / ds["progress_ratio"].values, "--", color="0.5", lw=1, label="no-slip tumbling")
     ax1.set_ylabel("speed (mm/s)")
     ax1.legend(fontsize=8)
     ax2.plot(f, ds["phase_lag_deg"], "o-", ms=4, color="C1")
-    ax2.set_ylabel("phase lag (deg)")
-    ax2.set_xlabel("field frequency (Hz)")
+    ax2.set_ylabel("mean phase lag (deg)")
+    if "following_share" in ds:
+        ax3.plot(f, ds["following_share"], "o-", ms=4, color="C2")
+        ax3.axhline(float(ds.attrs.get("step_out_share", 0.5)), color="0.5", lw=0.8, ls=":")
+    ax3.set_ylabel("field turns followed")
+    ax3.set_xlabel("field frequency (Hz)")
     so = float(ds["step_out_hz"])
-    for ax in (ax1, ax2):
+    for ax in (ax1, ax2, ax3):
         ax.grid(alpha=0.3)
         if np.isfinite(so):
             ax.axvline(so, color="C3", lw=1)
-    ax1.set_title(_title(ds, "Step-out") + (f"; step-out at {so:g} Hz" if np.isfinite(so) else "; no step-out in the sweep"), fontsize=10)
+    head = f"; step-out at {so:.4g} Hz" if np.isfinite(so) else "; no step-out in the sweep"
+    ax1.set_title(_title(ds, "Step-out") + f", {ds.attrs.get('field_mT', '?'):g} mT" + head, fontsize=10)
     save_figure(fig, path)
     return fig
 
