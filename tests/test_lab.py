@@ -116,3 +116,13 @@ def test_critical_field_per_posterior_draw(tmp_path) -> None:
     assert res.sizes["sample"] == 2 and np.all(np.isfinite(c))
     assert c[1] > c[0]  # a heavier electrostatic load needs a stronger field
     np.testing.assert_array_equal(res["F_elect"].values, [1e-6, 6e-6])
+
+
+def test_lab_figures(tmp_path) -> None:
+    from tumblemc.viz.lab import plot_lab
+
+    cf = lab.critical_field(1.0, 0.0, lo_mT=1.0, hi_mT=20.0, tol_mT=2.0)
+    assert cf.sizes["trial"] == int(cf["n_runs"]) and bool(cf["tumbled"].values[1])
+    for ds, name in ((cf, "cf.png"), (lab.steering("paper", freq_hz=2.75), "steer.png")):
+        assert plot_lab(ds, tmp_path / name) is not None
+        assert (tmp_path / name).stat().st_size > 10_000

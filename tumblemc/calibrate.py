@@ -9,8 +9,13 @@ Bench data are CSV files with a header naming the test:
 needs a likelihood, not least squares.)
 
 **Fit.** Bounded nonlinear least squares (:func:`scipy.optimize.least_squares`, trust
-region reflective) on the free fields, each scaled by its bound width, from the preset's
-values. The forward model is the simulator itself (``model="simulate"``: any shape, every
+region reflective) on the free fields, each scaled by its bound width. The model can have
+steps (the lift-off field moves with the adhesion, and a data point flips from flat to
+lifted), which trap a local fit. Where the closed form applies (static tilt of the cuboid
+under a field along -z) a global search on it (differential evolution) gives the start,
+for either forward model; otherwise the costs of the preset's values and of a seeded Latin
+hypercube of ``screen`` points (default 4 per free field) are screened and the fit runs
+from the best ``starts`` (2), keeping the lowest cost. The forward model is the simulator itself (``model="simulate"``: any shape, every
 physics option) or, for the paper's cuboid under a field along ``-n``, the closed-form
 edge balance (``model="closed-form"``, :func:`tumblemc.lab.cuboid_tilt_balance`; it
 agrees with the simulator to 0.002 deg, docs/lab.md), which is a thousand times cheaper.
@@ -58,7 +63,7 @@ KINDS: dict[tuple[str, str], tuple[str, str, str, str]] = {
     ("freq_hz", "speed_mm_s"): ("speed", "freq_hz", "speed_mm_s", "mm s-1"),
     ("incline_deg", "climbed"): ("critical_incline", "incline_deg", "climbed", "1"),
 }
-MODELS = ("simulate", "closed-form")
+MODELS = ("auto", "simulate", "closed-form")
 N_POSTERIOR = 2000
 COARSE_STEP = 1e-2  # the second Jacobian's step, in bound widths (the fit's is 1e-3)
 UNDETERMINED_SHARE = 0.5  # the data determine a parameter when they halve the spread of its bounds (sd width/sqrt(12))
@@ -123,9 +128,11 @@ def forward_model(
     """The model's prediction of ``data.y`` at ``data.x`` for given free-parameter values."""
     if model not in MODELS:
         raise ValueError(f"model={model!r} is not allowed (allowed: {', '.join(MODELS)})")
+    if model == "auto":
+        model = "closed-form" if closed_form_applies(data, shape, direction) else "simulate"
     if data.test == "static_tilt":
         if model == "closed-form":
-            if shape != "cuboid" or not np.allclose(np.asarray(direction, float) / np.linalg.norm(direction), (0, 0, -1)):
+            if not closed_form_applies(data, shape, direction):
                 raise ValueError("model='closed-form' is the paper cuboid's edge balance under a field along -z (allowed: shape cuboid)")
             return lambda p: np.array([lab.cuboid_tilt_balance(float(b), preset, **fixed, **p) for b in data.x])
         return lambda p: lab.static_tilt(data.x.tolist(), direction, shape, preset, **fixed, **p)["tilt_deg"].values
@@ -134,6 +141,12 @@ def forward_model(
             raise ValueError("model='closed-form' exists only for the static tilt (allowed: simulate)")
         return lambda p: lab.step_out(data.x.tolist(), shape=shape, preset=preset, **fixed, **p)["speed"].values
     raise ValueError(f"{data.source}: the critical-incline test is read but not fitted yet (allowed: static tilt, speed)")
+
+
+def closed_form_applies(data: BenchData, shape: str, direction: Sequence[float]) -> bool:
+    """Whether the cuboid's closed-form edge balance models ``data`` (static tilt, cuboid, field along -z)."""
+    d = np.asarray(direction, float)
+    return data.test == "static_tilt" and shape == "cuboid" and bool(np.allclose(d / np.linalg.norm(d), (0.0, 0.0, -1.0)))
 
 
 def _check_free(
@@ -169,10 +182,12 @@ def calibrate(
     shape: str = "cuboid",
     preset: str = "paper",
     direction: Sequence[float] = (0.0, 0.0, -1.0),
-    model: str = "simulate",
+    model: str = "auto",
     n_posterior: int = N_POSTERIOR,
     seed: int = 0,
     band_draws: int | None = None,
+    screen: int | None = None,
+    starts: int = 2,
     **fixed: Any,
 ) -> xr.Dataset:
     """Fit the ``free`` Params fields to bench ``data`` and draw a Laplace posterior.
@@ -192,18 +207,49 @@ def calibrate(
 
     bench = data if isinstance(data, BenchData) else read_bench(data)
     names, lo, hi = _check_free(free, bounds, preset)
-    f = forward_model(bench, shape, preset, direction, model, **fixed)
+    if model not in MODELS:
+        raise ValueError(f"model={model!r} is not allowed (allowed: {', '.join(MODELS)})")
+    fit_model = ("closed-form" if closed_form_applies(bench, shape, direction) else "simulate") if model == "auto" else model
+    f = forward_model(bench, shape, preset, direction, fit_model, **fixed)
     width = hi - lo
     nominal = get_preset(preset)
     z0 = np.clip((np.array([float(getattr(nominal, n)) for n in names]) - lo) / width, 1e-3, 1 - 1e-3)
-    count = [0]
+    count = [0]  # forward-model evaluations of the fit
+    search = [0]  # closed-form evaluations of the global search
+    p = len(names)
 
     def resid(z: np.ndarray) -> np.ndarray:
         count[0] += 1
         return f(dict(zip(names, (lo + z * width).tolist(), strict=True))) - bench.y
 
-    sol = least_squares(resid, z0, bounds=(0.0, 1.0), diff_step=1e-3, x_scale=1.0)
-    n, p = len(bench.y), len(names)
+    # a kink or a step in the model (the lift-off field moves with the parameters, and a data
+    # point flips from flat to lifted) traps a local fit. Where the closed form applies, a
+    # global search on it (differential evolution, milliseconds per evaluation) gives the
+    # start; otherwise the costs of the preset's values and of a seeded Latin hypercube are
+    # screened and the fit runs from the best few, keeping the lowest cost
+    cands = [z0]
+    if closed_form_applies(bench, shape, direction):
+        from scipy.optimize import differential_evolution
+
+        g = forward_model(bench, shape, preset, direction, "closed-form", **fixed)
+
+        def cost_cf(z: np.ndarray) -> float:
+            search[0] += 1
+            return float(np.sum((g(dict(zip(names, (lo + z * width).tolist(), strict=True))) - bench.y) ** 2))
+
+        de = differential_evolution(cost_cf, [(0.0, 1.0)] * p, seed=seed, tol=1e-6, polish=False, maxiter=300)
+        cands = [np.clip(de.x, 1e-6, 1 - 1e-6)]
+    else:
+        from scipy.stats import qmc
+
+        n_screen = screen if screen is not None else 4 * p
+        if n_screen > 0:
+            cands += list(qmc.LatinHypercube(p, rng=np.random.default_rng(seed)).random(n_screen) * 0.98 + 0.01)
+    costs = [float(np.sum(resid(z) ** 2)) for z in cands] if len(cands) > 1 else [0.0]
+    best = [cands[i] for i in np.argsort(costs)[: max(1, starts)]]
+    fits = [least_squares(resid, z, bounds=(0.0, 1.0), diff_step=1e-3, x_scale=1.0) for z in best]
+    sol = min(fits, key=lambda r: float(r.cost))
+    n = len(bench.y)
     dof = max(n - p, 1)
     s2 = float(sol.fun @ sol.fun) / dof
     # precision: the data's J^T J / s^2 (J in bound-width units) plus the bounds as a weak
@@ -243,8 +289,12 @@ def calibrate(
     prior_sd = width / math.sqrt(12.0)
     undetermined = [nm for nm, s, w in zip(names, sd, prior_sd, strict=True) if not s < UNDETERMINED_SHARE * w]
     fit = resid(sol.x) + bench.y
+    sim_check = math.nan
+    if model == "auto" and fit_model == "closed-form":  # the simulator at the estimate, as a check
+        sim = forward_model(bench, shape, preset, direction, "simulate", **fixed)(dict(zip(names, est.tolist(), strict=True)))
+        sim_check = float(np.sqrt(np.nanmean((sim - fit) ** 2)))
     if band_draws is None:  # the closed form is cheap enough for draws; the simulator is linearised
-        band_draws = 40 if model == "closed-form" else 0
+        band_draws = 40 if fit_model == "closed-form" else 0
     if band_draws > 0 and len(draws):
         band = np.array([f(dict(zip(names, d.tolist(), strict=True))) for d in draws[:band_draws]])
         band_lo, band_hi = np.percentile(band, 2.5, axis=0), np.percentile(band, 97.5, axis=0)
@@ -269,6 +319,8 @@ def calibrate(
             "title": f"tumblemc calibration: {bench.test} of the {shape} robot",
             "test": bench.test,
             "model": model,
+            "fit_model": fit_model,
+            "simulator_check_rms": sim_check,
             "shape": shape,
             "preset": preset,
             "direction": list(map(float, direction)),
@@ -281,6 +333,7 @@ def calibrate(
             "residual_sd": math.sqrt(s2),
             "condition_number": cond,
             "n_evaluations": count[0],
+            "n_search_evaluations": search[0],
             "optimizer_status": int(sol.status),
             "optimizer_message": str(sol.message),
             "undetermined": ",".join(undetermined),
@@ -302,21 +355,26 @@ def coverage(
     level: float = 0.95,
     seed: int = 1,
     progress: bool = False,
+    clean: np.ndarray | None = None,
 ) -> xr.Dataset:
     """Coverage of the posterior's central ``level`` intervals on synthetic static-tilt data.
 
-    ``n_rep`` data sets from the closed-form edge balance at ``truth`` (default: F_elect
-    2.5e-6 N, offset_deg 22) plus normal noise of ``noise_deg``, each calibrated with the
-    closed-form model, free parameters the keys of ``truth``; returns, per parameter, the
-    share of replicates whose interval holds the truth, and the interval widths.
+    ``n_rep`` data sets: the noise-free tilts ``clean`` at ``fields_mT`` (default: the
+    closed-form edge balance at ``truth``; pass ``lab.static_tilt(...)["tilt_deg"]`` for
+    simulated data) plus normal noise of ``noise_deg``, each calibrated with the closed-form
+    model, free parameters the keys of ``truth`` (default: F_elect 2.5e-6 N, offset_deg
+    22); returns, per parameter, the share of replicates whose interval holds the truth,
+    and the interval widths.
     """
     truth = truth or {"F_elect": 2.5e-6, "offset_deg": 22.0}
     x = np.asarray(fields_mT, float)
-    clean = np.array([lab.cuboid_tilt_balance(float(b), "paper", **truth) for b in x])
+    if clean is None:
+        clean = np.array([lab.cuboid_tilt_balance(float(b), "paper", **truth) for b in x])
     rng = np.random.default_rng(seed)
     names = list(truth)
     hit = np.zeros((n_rep, len(names)), bool)
     width = np.zeros((n_rep, len(names)))
+    undet = np.zeros((n_rep, len(names)), bool)
     q = (1 - level) / 2
     for i in range(n_rep):
         if progress and i % 20 == 0:
@@ -327,9 +385,11 @@ def coverage(
             a, b = np.quantile(post[nm].values, [q, 1 - q])
             hit[i, j] = a <= truth[nm] <= b
             width[i, j] = b - a
+            undet[i, j] = nm in post.attrs["undetermined"].split(",")
     return xr.Dataset(
         {
             "coverage": ("param", hit.mean(0), {"units": "1", "long_name": f"share of {level:.0%} intervals holding the truth"}),
+            "undetermined_share": ("param", undet.mean(0), {"units": "1", "long_name": "share of fits flagging it undetermined"}),
             "mean_width": ("param", width.mean(0), {"long_name": "mean interval width (parameter units)"}),
             "covered": (("replicate", "param"), hit),
         },
@@ -338,4 +398,4 @@ def coverage(
     )
 
 
-__all__ = ["KINDS", "MODELS", "BenchData", "calibrate", "coverage", "forward_model", "read_bench", "write_bench"]
+__all__ = ["KINDS", "MODELS", "BenchData", "calibrate", "closed_form_applies", "coverage", "forward_model", "read_bench", "write_bench"]

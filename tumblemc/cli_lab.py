@@ -98,7 +98,12 @@ def add_calibrate_parser(sub: Any, common: Any) -> None:
     p.add_argument("--free", required=True, help="Params fields to fit, comma-separated, e.g. F_elect,offset_deg,adhesion_C")
     p.add_argument("--bounds", action="append", default=[], metavar="NAME=LO:HI", help="bounds of a free field (default 0.25x-4x nominal)")
     p.add_argument("--direction", default="0,0,-1", help="static field direction, world frame (default: 0,0,-1)")
-    p.add_argument("--model", choices=("simulate", "closed-form"), default="simulate", help="forward model (default: simulate)")
+    p.add_argument(
+        "--model",
+        choices=("auto", "simulate", "closed-form"),
+        default="auto",
+        help="forward model: auto (default: the cuboid's closed form where it applies, checked by the simulator), simulate, closed-form",
+    )
     p.add_argument("--samples", type=int, default=2000, help="posterior draws (default: 2000)")
     p.add_argument("--shape", default="cuboid", help=SHAPE_HELP)
     p.add_argument("--preset", default="paper", help=PRESET_HELP)
@@ -132,7 +137,9 @@ def cmd_calibrate(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
         lo, hi = np.quantile(res[nm].values, [0.025, 0.975])
         print(f"{nm:>14s} = {est:.6g} (posterior sd {sd:.3g}, 95% {lo:.6g} .. {hi:.6g}) {res[nm].attrs['units']}")
     a = res.attrs
-    print(f"rms residual {a['rms_residual']:.4g}, {a['n_evaluations']} model evaluations, condition {a['condition_number']:.3g}")
+    print(f"rms residual {a['rms_residual']:.4g}, {a['n_evaluations']} {a['fit_model']} evaluations, condition {a['condition_number']:.3g}")
+    if np.isfinite(a["simulator_check_rms"]):
+        print(f"the simulator at the estimate differs from the closed form by {a['simulator_check_rms']:.3g} (rms, data units)")
     if res.attrs["undetermined"]:
         print(f"warning: the data do not determine {res.attrs['undetermined']} (its posterior keeps most of its bounds)")
     out = Path(args.out)

@@ -25,7 +25,9 @@ Each protocol returns an xarray Dataset with units (and a ``protocol`` attribute
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence as Seq
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -82,7 +84,9 @@ def cuboid_tilt_balance(field_mT: float, preset: str = "paper", **overrides: Any
     the root in ``(0, 90 deg - phi)`` of
     ``V_m|E||B| cos(theta + phi) = (m g + F_elect + lambda_line) (L/2 cos theta - H/2 sin theta)``
     with ``lambda_line = C w W`` (strip rule) or ``line_contact_fraction x W H`` (the authors'
-    rule); docs/lab.md derives it. ``phi`` is the offset about the width axis.
+    rule); docs/lab.md derives it. ``phi`` is the offset about the width axis. Where the
+    torque still wins when the centre of mass is above the edge (``theta = atan(L/H)``),
+    the robot topples and that tilt is returned.
     """
     from scipy.optimize import brentq
 
@@ -98,7 +102,12 @@ def cuboid_tilt_balance(field_mT: float, preset: str = "paper", **overrides: Any
     def net(th: float) -> float:
         return torque * math.cos(th + phi) - (load + lam_line) * (L / 2 * math.cos(th) - H / 2 * math.sin(th))
 
-    return math.degrees(brentq(net, 0.0, math.pi / 2 - phi, xtol=1e-12))
+    # the edge balance holds up to the tilt where the centre of mass passes over the edge
+    # (atan(L/H)); a field strong enough to hold the robot there topples it: that tilt
+    top = min(math.pi / 2 - phi, math.atan2(L, H))
+    if net(top) > 0.0:
+        return math.degrees(top)
+    return math.degrees(brentq(net, 0.0, top, xtol=1e-12))
 
 
 def _vec3(v: Seq[float]) -> tuple[float, float, float]:
@@ -123,6 +132,7 @@ def static_tilt(
     duration_s: float = TILT_DURATION_S,
     dt: float = TILT_DT,
     progress: bool = False,
+    workers: int | None = None,
     **overrides: Any,
 ) -> xr.Dataset:
     """Equilibrium tilt under a static field of each magnitude in ``field_mT`` (world ``direction``).
@@ -134,29 +144,37 @@ def static_tilt(
         that stayed flat), ``tilt_spread_deg`` (their standard deviation), ``n_equilibria``,
         ``tilt_time_mean_deg``, ``tilt_min_deg``, ``tilt_max_deg`` (after the first
         ``0.1 s``), ``status`` (the run's outcome status) and, for the paper's cuboid under
-        a field along ``-n``, ``tilt_closed_form_deg``.
+        a field along ``-n``, ``tilt_closed_form_deg``. ``workers`` threads (default: the
+        CPU count) simulate the fields side by side.
     """
     fields = _grid("field_mT", field_mT, 0.0, 10_000.0)
     keys = ("tilt_deg", "tilt_spread_deg", "n_equilibria", "tilt_time_mean_deg", "tilt_min_deg", "tilt_max_deg", "status")
-    out: dict[str, list[float]] = {k: [] for k in keys}
-    closed = []
     down = np.allclose(np.asarray(direction, float) / np.linalg.norm(direction), -plane_frame(incline_deg)["n"])
-    for k, mT in enumerate(fields):
-        if progress:
-            print(f"static tilt {k + 1}/{len(fields)}: {mT:g} mT", flush=True)
+
+    def one(mT: float) -> dict[str, float]:
         ds = simulate(shape, preset, incline_deg, duration_s=duration_s, dt=dt, field=Static(float(mT), _vec3(direction)), **overrides)
         th = tilt_deg(ds)
         late = th[ds["time"].values > TILT_SKIP_S]
         eq = equilibrium_tilts(ds)
         flat = late.max(initial=0.0) < LIFT_DEG
-        out["tilt_deg"].append(0.0 if flat else (float(eq.mean()) if eq.size else math.nan))
-        out["tilt_spread_deg"].append(0.0 if flat else (float(eq.std()) if eq.size else math.nan))
-        out["n_equilibria"].append(eq.size)
-        out["tilt_time_mean_deg"].append(float(late.mean()))
-        out["tilt_min_deg"].append(float(late.min()))
-        out["tilt_max_deg"].append(float(late.max()))
-        out["status"].append(int(ds.attrs["status"]))
-        closed.append(cuboid_tilt_balance(float(mT), preset, **overrides) if shape == "cuboid" and down else math.nan)
+        if progress:
+            print(f"static tilt: {mT:g} mT done", flush=True)
+        return {
+            "tilt_deg": 0.0 if flat else (float(eq.mean()) if eq.size else math.nan),
+            "tilt_spread_deg": 0.0 if flat else (float(eq.std()) if eq.size else math.nan),
+            "n_equilibria": eq.size,
+            "tilt_time_mean_deg": float(late.mean()),
+            "tilt_min_deg": float(late.min()),
+            "tilt_max_deg": float(late.max()),
+            "status": int(ds.attrs["status"]),
+        }
+
+    # the kernels release the GIL: threads run the fields side by side (results do not depend on it)
+    n_threads = max(1, min(len(fields), workers if workers is not None else (os.cpu_count() or 1)))
+    with ThreadPoolExecutor(n_threads) as pool:
+        rows = list(pool.map(one, [float(b) for b in fields]))
+    out = {k: [r[k] for r in rows] for k in keys}
+    closed = [cuboid_tilt_balance(float(mT), preset, **overrides) if shape == "cuboid" and down else math.nan for mT in fields]
     units = {"n_equilibria": "1", "status": "1"}
     data = {k: ("field_mT", np.asarray(v), {"units": units.get(k, "degree")}) for k, v in out.items()}
     data["tilt_closed_form_deg"] = ("field_mT", np.asarray(closed), {"units": "degree", "long_name": "closed-form edge balance"})
@@ -214,15 +232,21 @@ def critical_field(
     if not hi > lo:
         raise ValueError(f"hi_mT={hi_mT!r} is not above lo_mT={lo_mT!r} (allowed: lo_mT < hi_mT)")
     args = (freq_hz, incline_deg, shape, preset, periods, threshold, overrides)
-    at_lo, at_hi = _climbs(lo, *args), _climbs(hi, *args)
-    n = 2
+    tested: list[tuple[float, bool]] = []
+
+    def climbs(mT: float) -> bool:
+        ok = _climbs(mT, *args)
+        tested.append((mT, ok))
+        return ok
+
+    at_lo, at_hi = climbs(lo), climbs(hi)
     crit = math.nan
     if not at_lo and at_hi:
         while hi - lo > tol_mT:
             mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if _climbs(mid, *args) else (mid, hi)
-            n += 1
+            lo, hi = (lo, mid) if climbs(mid) else (mid, hi)
         crit = hi
+    n = len(tested)
     res = xr.Dataset(
         {
             "critical_mT": ((), crit, {"units": "mT", "long_name": "smallest field that tumbles (upper end of the last bracket)"}),
@@ -230,8 +254,10 @@ def critical_field(
             "tumbles_at_lo": ((), at_lo),
             "tumbles_at_hi": ((), at_hi),
             "n_runs": ((), n),
+            "tested_mT": ("trial", np.array([t for t, _ in tested]), {"units": "mT", "long_name": "fields tried, in order"}),
+            "tumbled": ("trial", np.array([ok for _, ok in tested]), {"long_name": "the run at that field tumbled"}),
         },
-        coords={"end": ["lo", "hi"]},
+        coords={"end": ["lo", "hi"], "trial": np.arange(n)},
     )
     res.attrs.update(_attrs("critical_field", shape, preset, incline_deg, overrides.get("dt"), periods / freq_hz, overrides))
     res.attrs.update({"freq_hz": float(freq_hz), "threshold": threshold, "tol_mT": tol_mT})

@@ -7,6 +7,7 @@ import os
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from tumblemc.viz.style import save_figure
 
@@ -82,7 +83,47 @@ def plot_steering(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) ->
     return fig
 
 
-PLOTS = {"static_tilt": plot_static_tilt, "step_out": plot_step_out, "steering": plot_steering}
+def plot_critical_field(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
+    """The bisection's trials (field against trial, by verdict) or, per sample, the critical fields' histogram."""
+    fig = Figure(figsize=(6.0, 3.8))
+    ax = fig.add_subplot()
+    if "sample" in ds.dims:
+        ax.hist(ds["critical_mT"].values[np.isfinite(ds["critical_mT"].values)], bins=max(5, ds.sizes["sample"] // 3), color="C0")
+        ax.axvline(float(ds["critical_mT_median"]), color="C3", lw=1.2, label="median")
+        ax.set_xlabel("critical field (mT)")
+        ax.set_ylabel("parameter samples")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.legend(fontsize=8)
+        head = f"Critical field over {ds.sizes['sample']} samples"
+    else:
+        k = ds["trial"].values
+        ok = ds["tumbled"].values.astype(bool)
+        ax.plot(k[ok], ds["tested_mT"].values[ok], "o", color="C2", label="tumbles")
+        ax.plot(k[~ok], ds["tested_mT"].values[~ok], "x", color="C3", label="does not")
+        c = float(ds["critical_mT"])
+        if np.isfinite(c):
+            ax.axhline(c, color="0.4", lw=1, ls="--", label=f"critical {c:.3g} mT")
+        ax.set_xlabel("bisection trial")
+        ax.set_ylabel("field |B| (mT)")
+        ax.legend(fontsize=8)
+        head = "Critical field"
+    ax.grid(alpha=0.3)
+    ax.set_title(
+        f"{head}: {ds.attrs.get('shape', '?')}, {ds.attrs.get('preset', '?')}, {ds.attrs.get('freq_hz', '?')} Hz, "
+        f"{ds.attrs.get('incline_deg', '?')} deg",
+        fontsize=10,
+    )
+    save_figure(fig, path)
+    return fig
+
+
+PLOTS = {
+    "critical_field": plot_critical_field,
+    "critical_field_samples": plot_critical_field,
+    "static_tilt": plot_static_tilt,
+    "step_out": plot_step_out,
+    "steering": plot_steering,
+}
 
 
 def plot_lab(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure | None:
@@ -91,4 +132,4 @@ def plot_lab(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figu
     return fn(ds, path) if fn else None
 
 
-__all__ = ["plot_lab", "plot_static_tilt", "plot_steering", "plot_step_out"]
+__all__ = ["plot_critical_field", "plot_lab", "plot_static_tilt", "plot_steering", "plot_step_out"]
