@@ -142,17 +142,7 @@ def cmd_calibrate(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
         print(f"the simulator at the estimate differs from the closed form by {a['simulator_check_rms']:.3g} (rms, data units)")
     if res.attrs["undetermined"]:
         print(f"warning: the data do not determine {res.attrs['undetermined']} (its posterior keeps most of its bounds)")
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    res.to_netcdf(out)
-    print(f"wrote {out}")
-    if args.plot:
-        from tumblemc.viz.calibrate import plot_calibration
-
-        png = out.with_suffix(".png")
-        plot_calibration(res, png)
-        print(f"wrote {png}")
-    return 0
+    return _write(res, args)
 
 
 def cmd_lab(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
@@ -195,15 +185,21 @@ def cmd_lab(args: argparse.Namespace, overrides: dict[str, Any]) -> int:
             f"turn {float(ds['turn_deg']):.2f} deg (legs {ds['heading_deg'].values.round(2).tolist()} deg), field jump "
             f"{float(ds['field_jump_deg']):.1f} deg, failed steps {int(ds['failed_steps'])}, status {int(ds['status'])}"
         )
+    return _write(ds, args)
+
+
+def _write(ds: Any, args: argparse.Namespace) -> int:
+    """Write a protocol's or a calibration's Dataset to ``--out`` and, with ``--plot``, its figure next to it."""
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     ds.to_netcdf(out)
     print(f"wrote {out}")
     if args.plot:
+        from tumblemc.viz.calibrate import plot_calibration
         from tumblemc.viz.lab import plot_lab
 
         png = out.with_suffix(".png")
-        if plot_lab(ds, png) is not None:
+        if (plot_calibration(ds, png) if "test" in ds.attrs else plot_lab(ds, png)) is not None:
             print(f"wrote {png}")
     return 0
 

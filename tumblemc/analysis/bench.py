@@ -78,19 +78,23 @@ def cuboid_tilt_balance(field_mT: float, preset: str = "paper", **overrides: Any
     return math.degrees(brentq(net, 0.0, top, xtol=1e-12))
 
 
-def phase_lag_deg(ds: xr.Dataset, t0: float) -> float:
-    """Mean angle (deg, in (-180, 180]) by which the magnetisation trails the field in the rotation plane, after ``t0``.
-
-    The paper's field rotates about world x; both vectors are projected onto the y-z plane.
-    """
+def _plane_angles(ds: xr.Dataset, t0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unwrapped angles (rad) of the magnetisation and of the field in the world y-z plane after ``t0``."""
     from tumblemc.model.params import magnetisation_dir
 
     e_b = magnetisation_dir(float(ds.attrs["offset_deg"]), ds.attrs.get("offset_axis", (1.0, 0.0, 0.0)))
     m = quat_to_matrix(ds["quaternion"].values) @ e_b
     b = ds["field"].values
     keep = ds["time"].values >= t0
-    ang_m = np.unwrap(np.arctan2(m[keep, 2], m[keep, 1]))
-    ang_b = np.unwrap(np.arctan2(b[keep, 2], b[keep, 1]))
+    return np.unwrap(np.arctan2(m[keep, 2], m[keep, 1])), np.unwrap(np.arctan2(b[keep, 2], b[keep, 1]))
+
+
+def phase_lag_deg(ds: xr.Dataset, t0: float) -> float:
+    """Mean angle (deg, in (-180, 180]) by which the magnetisation trails the field in the rotation plane, after ``t0``.
+
+    The paper's field rotates about world x; both vectors are projected onto the y-z plane.
+    """
+    ang_m, ang_b = _plane_angles(ds, t0)
     lag = float(np.degrees(np.mean(ang_b - ang_m)))
     return (lag + 180.0) % 360.0 - 180.0
 
@@ -101,14 +105,7 @@ def following_share(ds: xr.Dataset, t0: float) -> float:
     Angles in the plane normal to world x (the paper's field), unwrapped; a robot that
     follows lags by a bounded angle, one that stepped out loses whole turns.
     """
-    from tumblemc.model.params import magnetisation_dir
-
-    e_b = magnetisation_dir(float(ds.attrs["offset_deg"]), ds.attrs.get("offset_axis", (1.0, 0.0, 0.0)))
-    m = quat_to_matrix(ds["quaternion"].values) @ e_b
-    b = ds["field"].values
-    keep = ds["time"].values >= t0
-    turn_m = np.unwrap(np.arctan2(m[keep, 2], m[keep, 1]))
-    turn_b = np.unwrap(np.arctan2(b[keep, 2], b[keep, 1]))
+    turn_m, turn_b = _plane_angles(ds, t0)
     field_turn = turn_b[-1] - turn_b[0]
     return float((turn_m[-1] - turn_m[0]) / field_turn) if field_turn else math.nan
 
