@@ -11,12 +11,13 @@ import xarray as xr
 from tumblemc import lab
 from tumblemc.cli import main
 from tumblemc.model.params import get_preset
+from tumblemc.model.shapes.types import ALUMINUM_ROBOT_LWH_M
 
 
 def test_closed_form_balance_by_hand() -> None:
     # lift-off where V_m|E||B| cos(phi) = (m g + F_elect + C L W) L/2, about 6.2 mT (issue 14)
     p = get_preset("paper")
-    L, W, H = 800e-6, 400e-6, 100e-6
+    L, W, H = ALUMINUM_ROBOT_LWH_M  # the paper's cuboid (MODEL.md), independent of the shape library
     phi = math.radians(p.offset_deg)
     b_lift = (p.mass * p.g + p.F_elect + p.adhesion_C * L * W) * L / 2 / (p.V_m * p.magnetization * math.cos(phi)) * 1e3
     assert 6.1 < b_lift < 6.25
@@ -89,7 +90,7 @@ def test_critical_field() -> None:
     # to tumble it must lift off its face: even with the field normal to the magnetisation
     # (the largest torque, |m||B|) that needs (m g + F_elect + C L W) L/2 about the edge
     p = get_preset("paper")
-    L, W = 800e-6, 400e-6
+    L, W, _ = ALUMINUM_ROBOT_LWH_M
     bound = (p.mass * p.g + p.F_elect + p.adhesion_C * L * W) * L / 2 / (p.V_m * p.magnetization) * 1e3
     assert bound < c < bound + 1.0
 

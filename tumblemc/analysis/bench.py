@@ -6,6 +6,7 @@ derives the closed-form edge balance and explains the detection.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -14,6 +15,7 @@ import xarray as xr
 
 from tumblemc.model.frames import plane_frame, quat_to_matrix
 from tumblemc.model.params import get_preset
+from tumblemc.model.shapes.library import get_shape
 
 TILT_SKIP_S = 0.1  # the first lift-off is left out of the detection
 LIFT_DEG = 0.5  # a robot that never tilts more than this stayed flat (held by adhesion)
@@ -45,6 +47,13 @@ def equilibrium_tilts(ds: xr.Dataset, skip_s: float = TILT_SKIP_S) -> np.ndarray
     return th[i] + (th[i + 1] - th[i]) * acc[i] / (acc[i] - acc[i + 1])
 
 
+@functools.cache
+def _cuboid_lwh() -> tuple[float, float, float]:
+    """Length, width, height (m) of the library's cuboid (x W, y L, z H), built once: the balance is called per data point."""
+    w, l_, h = np.ptp(get_shape("cuboid").pieces[0].support_points, axis=0)
+    return float(l_), float(w), float(h)
+
+
 def cuboid_tilt_balance(field_mT: float, preset: str = "paper", **overrides: Any) -> float:
     """Closed-form equilibrium tilt (deg) of the paper's cuboid under a field straight down (``-n``).
 
@@ -59,7 +68,7 @@ def cuboid_tilt_balance(field_mT: float, preset: str = "paper", **overrides: Any
     from scipy.optimize import brentq
 
     p = get_preset(preset).replace(**overrides) if overrides else get_preset(preset)
-    L, W, H = 800e-6, 400e-6, 100e-6  # shapes.library.cuboid()
+    L, W, H = _cuboid_lwh()
     phi = math.radians(p.offset_deg)
     torque = p.V_m * p.magnetization * field_mT * 1e-3
     load = p.mass * p.g + p.F_elect

@@ -222,11 +222,6 @@ def scale_program(program: np.ndarray, time_unit: float, torque_per_tesla: float
     return out
 
 
-def paper_field(field_mT: float, freq_hz: float) -> Rotating:
-    """The paper's field as a program: ``Rotating(field_mT, freq_hz)`` about world x from uphill."""
-    return Rotating(field_mT, freq_hz)
-
-
 def describe(field: Field) -> str:
     """One line naming the program (for attributes and plots)."""
     if isinstance(field, Sequence):
@@ -250,7 +245,6 @@ __all__ = [
     "compile_program",
     "describe",
     "field_at",
-    "paper_field",
     "peak_mT",
     "revolutions",
     "scale_program",
