@@ -55,6 +55,7 @@ LAYERS: dict[str, int] = {
     "tumblemc.calibrate": 5,
     "tumblemc.cli": 6,
     "tumblemc.cli_lab": 6,
+    "tumblemc.cli_study": 6,
     "tumblemc.__main__": 6,
     "tumblemc": 6,
 }

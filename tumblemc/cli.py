@@ -26,7 +26,17 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tumblemc.cli_lab import add_calibrate_parser, add_lab_parser, cmd_calibrate, cmd_lab
+from tumblemc.cli_lab import (
+    PRESET_CHOICES,
+    PRESET_HELP,
+    SHAPE_CHOICES,
+    SHAPE_HELP,
+    add_calibrate_parser,
+    add_lab_parser,
+    cmd_calibrate,
+    cmd_lab,
+)
+from tumblemc.cli_study import add_study_parser, cmd_study
 from tumblemc.io import write_run
 from tumblemc.model.params import Params
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
@@ -110,8 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     what = "run one simulation and write a netCDF file"
     s = sub.add_parser("simulate", help=what, description=what[0].upper() + what[1:] + ".")
-    s.add_argument("--shape", default="cuboid", help="robot shape (default: cuboid)")
-    s.add_argument("--preset", default="paper", help="parameter preset: paper or aluminum (default: paper)")
+    s.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
+    s.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
     s.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
     s.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="rotating field magnitude, mT (default: 20)")
     s.add_argument("--freq-hz", type=float, default=1.0, help="field frequency, Hz (default: 1)")
@@ -158,45 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--n3d", type=int, default=None, help="3-D runs (default: 100, or 8 with --quick)")
     sp.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores; 0: no dask)")
 
-    what = "Monte Carlo robustness studies: run, status, plot"
-    st = sub.add_parser("study", help=what, description=what + ".")
-    ss = st.add_subparsers(dest="study_command", metavar="ACTION")
-    ss.required = True
-    r = ss.add_parser("run", help="run a study (or resume it)", description="Run a study TOML; rerunning resumes an interrupted study.")
-    r.add_argument("config", help="study TOML, e.g. studies/smoke.toml")
-    r.add_argument("--out", default=None, help="result netCDF (default: results/<study name>.nc)")
-    r.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        help="worker processes of the embedded local cluster (default: all cores; 0: run in this process without dask)",
-    )
-    r.add_argument(
-        "--scheduler", default=None, help="address of an existing dask scheduler, e.g. tcp://host:8786 (instead of the local cluster)"
-    )
-    r.add_argument("--batch-size", type=int, default=None, help="runs per task (default: the config's [execution].batch_size)")
-    r.add_argument(
-        "--fresh", action="store_true", help="discard earlier results of this output instead of resuming (needed after a config change)"
-    )
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
-    r.add_argument("--plot", action="store_true", help="also write the study plots next to the result")
-    t = ss.add_parser("status", help="how far a study got", description="How far a study got (from its TOML or its result file).")
-    t.add_argument("study", help="study TOML or result netCDF")
-    t.add_argument("--out", default=None, help="result netCDF of a TOML given (default: results/<study name>.nc)")
-    pl = ss.add_parser(
-        "plot", help="plot a study result", description="Success-probability heatmap, curves with CI bands, progress-ratio distributions."
-    )
-    pl.add_argument("result", help="result netCDF")
-    pl.add_argument("--out", default=None, help="output directory (default: next to the result, <name>_plots)")
-
-    cmp = ss.add_parser(
-        "compare",
-        help="critical-incline curve vs a grid map",
-        description="Compare a critical-incline study with a direct incline-grid study at the grid inclines.",
-    )
-    cmp.add_argument("critical", help="result netCDF of a mode = critical_incline study")
-    cmp.add_argument("grid", help="result netCDF of a grid study of the same shapes and substrates")
-    cmp.add_argument("--out", default=None, help="write the comparison table as CSV")
+    add_study_parser(sub)
 
     what = "animate a saved run (side view GIF or MP4)"
     an = sub.add_parser(
@@ -295,102 +267,6 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return int(run_validation(out_dir=args.out, quick=args.quick))
 
 
-def _cmd_study(args: argparse.Namespace) -> int:
-    from tumblemc.study.engine import local_client, run_study, study_status
-
-    if args.study_command == "status":
-        st = study_status(args.study, args.out)
-        print(format_table(st))
-        return EXIT_OK
-    if args.study_command == "plot":
-        from tumblemc.io import open_result
-        from tumblemc.viz.study import plot_study
-
-        result = Path(args.result)
-        runs, maps = open_result(result)
-        out_dir = Path(args.out) if args.out else result.with_name(result.stem + "_plots")
-        for path in plot_study(runs, maps, out_dir):
-            print(f"wrote {path}")
-        from tumblemc.analysis.maps import check_words
-
-        words = check_words(runs, str(result))
-        if words:
-            print(words)
-        return EXIT_OK
-    if args.study_command == "compare":
-        from tumblemc.analysis.critical import compare_with_grid
-        from tumblemc.io import open_result
-
-        crit_runs, crit_maps = open_result(args.critical)
-        _, grid_maps = open_result(args.grid)
-        table = compare_with_grid(crit_maps, grid_maps).to_dataframe().reset_index()
-        cols = [
-            "shape",
-            "substrate",
-            "incline_deg",
-            "p_success_critical",
-            "p_success_lower_critical",
-            "p_success_upper_critical",
-            "p_success_grid",
-            "p_success_lower_grid",
-            "p_success_upper_grid",
-            "agree",
-        ]
-        table = table[[c for c in cols if c in table.columns]]
-        print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-        a = crit_runs.attrs
-        if "monotonicity_disagreement_rate" in a:
-            print(
-                f"monotonicity check: {a['monotonicity_checked_samples']} samples "
-                f"at {crit_runs.sizes.get('check_incline_deg', 0)} grid inclines; "
-                f"disagreement rate {a['monotonicity_disagreement_rate']:.3f}; non-monotone samples {a['monotonicity_nonmonotone_samples']}"
-            )
-        sims, grid_eq = int(a.get("simulations_total", 0)), int(a.get("simulations_grid_equivalent", 0))
-        if grid_eq:
-            print(f"simulations: {sims} for the critical curve vs {grid_eq} for the grid it replaces (ratio {sims / grid_eq:.2f})")
-        print(f"agree within the CI at {int(table['agree'].sum())} of {len(table)} grid inclines")
-        if args.out:
-            table.to_csv(args.out, index=False)
-            print(f"wrote {args.out}")
-        return EXIT_OK
-    if args.workers is not None and args.workers < 0:
-        raise _UsageError(f"--workers {args.workers} is not allowed (allowed: 0 for in-process, or >= 1)")
-    if args.batch_size is not None and args.batch_size < 1:
-        raise _UsageError(f"--batch-size {args.batch_size} is not allowed (allowed: >= 1)")
-    client = None
-    try:
-        if args.scheduler:
-            from distributed import Client
-
-            client = Client(args.scheduler)
-        else:
-            from tumblemc.study.config import load_config
-
-            workers = args.workers if args.workers is not None else load_config(args.config).execution.workers
-            if workers != 0:
-                client = local_client(workers)
-        try:
-            res = run_study(args.config, client, out=args.out, fresh=args.fresh, progress=not args.no_progress, batch_size=args.batch_size)
-        except KeyboardInterrupt:
-            print("\ninterrupted: finished runs are kept; run the same command again to resume", file=sys.stderr)
-            return 130
-    finally:
-        if client is not None:
-            cluster = getattr(client, "cluster", None) if not args.scheduler else None
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    print(f"wrote {res.path}")
-    st = study_status(res.path)
-    print(format_table(st))
-    if args.plot:
-        from tumblemc.viz.study import plot_study
-
-        for path in plot_study(res.runs, res.maps, res.path.with_name(res.path.stem + "_plots")):
-            print(f"wrote {path}")
-    return EXIT_OK
-
-
 def _cmd_animate(args: argparse.Namespace) -> int:
     from tumblemc.viz.animation import animate_result
 
@@ -441,7 +317,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "bench":
             return _cmd_bench(rest)
         if args.command == "study":
-            return _cmd_study(args)
+            return cmd_study(args, format_table, _UsageError)
         if args.command == "shapes":
             return _cmd_shapes(args)
         if args.command == "animate":

@@ -14,8 +14,13 @@ from typing import Any
 
 import numpy as np
 
-SHAPE_HELP = "robot shape: cuboid, spiked, spiked_ends or curved (default: cuboid)"
-PRESET_HELP = "parameter preset: paper or aluminum (default: paper)"
+from tumblemc.model.params import PRESETS
+from tumblemc.model.shapes.library import SHAPES
+
+SHAPE_CHOICES = tuple(SHAPES)
+PRESET_CHOICES = tuple(PRESETS)
+SHAPE_HELP = f"robot shape: {', '.join(SHAPE_CHOICES)} (default: cuboid)"
+PRESET_HELP = f"parameter preset: {', '.join(PRESET_CHOICES)} (default: paper)"
 
 
 def parse_values(name: str, text: str) -> list[float]:
@@ -50,8 +55,8 @@ def add_lab_parser(sub: Any, common: Any) -> None:
     ls.required = True
 
     def base(p: argparse.ArgumentParser, out: str) -> None:
-        p.add_argument("--shape", default="cuboid", help=SHAPE_HELP)
-        p.add_argument("--preset", default="paper", help=PRESET_HELP)
+        p.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
+        p.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
         common(p)
         p.add_argument("--out", default=out, help=f"output netCDF path (default: {out})")
         p.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
@@ -105,8 +110,8 @@ def add_calibrate_parser(sub: Any, common: Any) -> None:
         help="forward model: auto (default: the cuboid's closed form where it applies, checked by the simulator), simulate, closed-form",
     )
     p.add_argument("--samples", type=int, default=2000, help="posterior draws (default: 2000)")
-    p.add_argument("--shape", default="cuboid", help=SHAPE_HELP)
-    p.add_argument("--preset", default="paper", help=PRESET_HELP)
+    p.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
+    p.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
     common(p)
     p.add_argument("--out", default="calib.nc", help="output netCDF path (default: calib.nc)")
     p.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
@@ -204,4 +209,13 @@ def _write(ds: Any, args: argparse.Namespace) -> int:
     return 0
 
 
-__all__ = ["add_calibrate_parser", "add_lab_parser", "cmd_calibrate", "cmd_lab", "parse_values", "parse_vector"]
+__all__ = [
+    "PRESET_CHOICES",
+    "SHAPE_CHOICES",
+    "add_calibrate_parser",
+    "add_lab_parser",
+    "cmd_calibrate",
+    "cmd_lab",
+    "parse_values",
+    "parse_vector",
+]

@@ -7,15 +7,25 @@ the config (canonical JSON) and its hash. Rerunning the same study reads the sha
 runs only what is missing; a different config is refused unless the caller starts afresh.
 When every run is done the shards are assembled into one netCDF file (netCDF4 engine, zlib)
 with two groups, ``runs`` and ``maps``, and the folder is removed.
+
+Every shard carries a checksum: the first 16 hex digits of the SHA-256 of its bytes end its
+name. A shard that fails its checksum, cannot be read, or whose columns differ from the
+other shards', and every shard holding a run that another shard records with different
+values, is set aside in ``<result>.parts/damaged/`` (named in a warning) and its runs are
+simulated again: results depend only on the config, so the recomputed file is the same.
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import io
 import json
 import os
 import shutil
 import uuid
+import zipfile
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +33,7 @@ import numpy as np
 import xarray as xr
 
 SHARD_SUFFIX = ".npz"
+DIGEST_CHARS = 16  # hex digits of the shard's SHA-256 in its name
 
 
 class StudyStateError(ValueError):
@@ -80,7 +91,7 @@ class ShardStore:
         if fresh and self.dir.exists():
             shutil.rmtree(self.dir)
         if meta.exists():
-            stored = json.loads(meta.read_text())
+            stored = read_study_json(meta)
             if stored.get("config_hash") != self.config_hash:
                 raise StudyStateError(
                     f"{self.dir} holds runs of a different config (hash {stored.get('config_hash', '?')[:12]}, "
@@ -92,42 +103,62 @@ class ShardStore:
         _atomic_write_bytes(meta, json.dumps({"config_hash": self.config_hash, "config": json.loads(self.config_json)}, indent=1).encode())
 
     def write(self, kind: str, run: np.ndarray, outcome: dict[str, np.ndarray]) -> Path:
-        """Write one finished batch: ``run`` indices and outcome columns (same length)."""
-        name = f"{kind}-{int(run[0]):09d}-{len(run)}-{uuid.uuid4().hex[:8]}{SHARD_SUFFIX}"
+        """Write one finished batch: ``run`` indices and outcome columns (same length).
+
+        The name ends with the checksum of the bytes, so a retried batch (same values)
+        replaces its own shard.
+        """
         arrays: dict[str, Any] = {"run": np.asarray(run, dtype=np.int64)}
         for k, v in outcome.items():
             arrays[k] = np.asarray(v).astype(str) if np.asarray(v).dtype == object else np.asarray(v)
         buf = io.BytesIO()
         np.savez(buf, **arrays)
+        data = buf.getvalue()
+        name = f"{kind}-{int(run[0]):09d}-{len(run)}-{hashlib.sha256(data).hexdigest()[:DIGEST_CHARS]}{SHARD_SUFFIX}"
         path = self.dir / name
-        _atomic_write_bytes(path, buf.getvalue())
+        _atomic_write_bytes(path, data)
         return path
 
-    def read(self, kind: str) -> dict[str, np.ndarray]:
+    def read(self, kind: str, set_aside: bool = True) -> dict[str, np.ndarray]:
         """All finished runs of ``kind``.
 
         Concatenated columns sorted by run index, each run once (a shard written twice,
-        e.g. by a task that was retried, counts once).
+        e.g. by a task that was retried, counts once). Damaged and conflicting shards
+        (module docstring) are left out; with ``set_aside`` they are moved to
+        ``damaged/``, and :attr:`damaged` lists ``(file, reason)`` either way.
         """
-        cols: dict[str, list[np.ndarray]] = {}
+        self.damaged: list[tuple[Path, str]] = []
         if not self.dir.exists():
             return {}
+        shards: dict[Path, dict[str, np.ndarray]] = {}
         for path in sorted(self.dir.glob(f"{kind}-*{SHARD_SUFFIX}")):
-            try:
-                with np.load(path, allow_pickle=False) as z:
-                    data = {k: z[k] for k in z.files}
-            except (OSError, ValueError, EOFError):  # pragma: no cover - a torn file cannot be renamed into place
-                continue
-            for k, v in data.items():
-                cols.setdefault(k, []).append(v)
-        if not cols:
+            data, why = _load_shard(path)
+            if data is None:
+                self.damaged.append((path, why))
+            else:
+                shards[path] = data
+        if shards:  # every shard of a kind has the same columns: the most common set
+            common = Counter(frozenset(d) for d in shards.values()).most_common(1)[0][0]
+            for path, d in list(shards.items()):
+                if frozenset(d) != common:
+                    missing, extra = sorted(common - frozenset(d)), sorted(frozenset(d) - common)
+                    self.damaged.append((path, f"columns differ from the other shards (missing {missing}, extra {extra})"))
+                    del shards[path]
+        for path in _conflicting(shards):
+            self.damaged.append((path, "records a run that another shard records with different values"))
+            del shards[path]
+        if set_aside:
+            for path, _ in self.damaged:
+                (self.dir / "damaged").mkdir(exist_ok=True)
+                os.replace(path, self.dir / "damaged" / path.name)
+        if not shards:
             return {}
-        out = {k: np.concatenate(v) for k, v in cols.items()}
+        out = {k: np.concatenate([d[k] for d in shards.values()]) for k in next(iter(shards.values()))}
         _, first = np.unique(out["run"], return_index=True)
         return {k: v[first] for k, v in out.items()}
 
     def done(self, kind: str) -> np.ndarray:
-        """Run indices of ``kind`` already finished."""
+        """Run indices of ``kind`` already finished (damaged shards set aside)."""
         return self.read(kind).get("run", np.zeros(0, np.int64))
 
     def remove(self) -> None:
@@ -135,17 +166,155 @@ class ShardStore:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
+def read_study_json(meta: Path) -> dict[str, Any]:
+    """The ``study.json`` of a shard folder; a damaged one raises :class:`StudyStateError` naming it."""
+    try:
+        stored = json.loads(meta.read_bytes().decode("utf-8"))
+        if not isinstance(stored, dict):
+            raise ValueError("not a JSON object")
+    except (ValueError, UnicodeDecodeError) as e:
+        raise StudyStateError(
+            f"{meta} is damaged ({e}); it records which config the shards beside it belong to: "
+            f"rerun with --fresh (fresh=True) to discard them"
+        ) from None
+    return stored
+
+
+def _load_shard(path: Path) -> tuple[dict[str, np.ndarray] | None, str]:
+    """A shard's columns, or ``None`` and why it cannot be used."""
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        return None, f"cannot be read ({e.strerror})"
+    digest = path.stem.rsplit("-", 1)[-1]
+    if len(digest) != DIGEST_CHARS or hashlib.sha256(raw).hexdigest()[:DIGEST_CHARS] != digest:
+        return None, "fails its checksum (the name's SHA-256 digits)"
+    try:
+        with np.load(io.BytesIO(raw), allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as e:
+        return None, f"cannot be decoded ({type(e).__name__}: {e})"
+    run = data.get("run")
+    if run is None or run.ndim != 1 or run.dtype.kind != "i":
+        return None, "has no integer run column"
+    bad = [k for k, v in data.items() if v.ndim == 0 or len(v) != len(run)]
+    if bad:
+        return None, f"columns {bad} do not match its {len(run)} runs"
+    return data, ""
+
+
+def _conflicting(shards: dict[Path, dict[str, np.ndarray]]) -> list[Path]:
+    """Shards that record a run with values that differ from another shard's record of it."""
+    first: dict[int, tuple[Path, int]] = {}
+    bad: set[Path] = set()
+    for path, d in shards.items():
+        for j, r in enumerate(d["run"].tolist()):
+            if r not in first:
+                first[r] = (path, j)
+                continue
+            p0, j0 = first[r]
+            if any(not _same(shards[p0][k][j0], d[k][j]) for k in d):
+                bad.update((p0, path))
+    return sorted(bad)
+
+
+def _same(a: Any, b: Any) -> bool:
+    return bool(np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind in "fc"))
+
+
+class StudyLockedError(StudyStateError):
+    """Another process is running the study that writes the same result file."""
+
+
+class StudyLock:
+    """An exclusive lock on a result file while a study writes it (``<result>.lock``, POSIX ``flock``).
+
+    Released when the process ends, however it ends (``kill -9`` included), so a stale lock
+    never blocks a rerun. Where ``fcntl`` does not exist (Windows) nothing is locked.
+    """
+
+    def __init__(self, result: Path) -> None:
+        self.path = Path(result).with_name(Path(result).name + ".lock")
+        self._fh: Any = None
+
+    def __enter__(self) -> StudyLock:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows
+            return self
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fh = open(self.path, "a+")  # noqa: SIM115 - held open for the lock's lifetime
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            fh.close()
+            raise StudyLockedError(
+                f"{self.path.with_suffix('')} is being written by {holder}; wait for it to finish (rerun then resumes or "
+                "reports it complete) or give another --out"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"`tumblemc study run` (pid {os.getpid()}, started {_now()})")
+        fh.flush()
+        self._fh = fh
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fh is not None:
+            self.path.unlink(missing_ok=True)  # still held: a waiting process finds the study complete
+            self._fh.close()
+            self._fh = None
+
+
+def _now() -> str:
+    import datetime as _dt
+
+    return _dt.datetime.now().astimezone().replace(microsecond=0).isoformat()
+
+
+class ResultWriteError(OSError):
+    """The final netCDF file could not be written (full disk, say); the shards are kept."""
+
+    def __str__(self) -> str:
+        return str(self.args[-1])
+
+
+def remove_stale_temps(path: Path) -> list[Path]:
+    """Delete temporary files an interrupted final write left next to ``path`` (call under :class:`StudyLock`)."""
+    stale = sorted(Path(path).parent.glob(f".{Path(path).name}.*.tmp"))
+    for t in stale:
+        t.unlink(missing_ok=True)
+    return stale
+
+
 def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dict[str, Any]) -> None:
-    """Write ``runs`` and ``maps`` as groups of one netCDF4 file (zlib), atomically."""
+    """Write ``runs`` and ``maps`` as groups of one netCDF4 file (zlib), atomically.
+
+    A failure leaves no temporary file behind; a full disk raises :class:`ResultWriteError`
+    saying so (netCDF reports it as an ``HDF error``).
+    """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    xr.Dataset(attrs=root_attrs).to_netcdf(tmp, mode="w", engine="netcdf4")
-    for group, ds in (("runs", runs), ("maps", maps)):
-        enc = {v: {"zlib": True, "complevel": 4} for v in ds.data_vars if ds[v].dtype.kind in "fiub"}
-        ds.to_netcdf(tmp, mode="a", group=group, engine="netcdf4", encoding=enc)
-    with open(tmp, "rb") as fh:  # on disk before the shards it replaces are removed
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        xr.Dataset(attrs=root_attrs).to_netcdf(tmp, mode="w", engine="netcdf4")
+        for group, ds in (("runs", runs), ("maps", maps)):
+            enc = {v: {"zlib": True, "complevel": 4} for v in ds.data_vars if ds[v].dtype.kind in "fiub"}
+            ds.to_netcdf(tmp, mode="a", group=group, engine="netcdf4", encoding=enc)
+        with open(tmp, "rb") as fh:  # on disk before the shards it replaces are removed
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except (OSError, RuntimeError) as e:
+        tmp.unlink(missing_ok=True)
+        need = (runs.nbytes + maps.nbytes) / 2**20
+        free = shutil.disk_usage(path.parent).free / 2**20
+        full = getattr(e, "errno", None) == errno.ENOSPC or free < max(2 * need, 64.0)
+        what = f"no space left on the disk of {path.parent} ({free:.0f} MiB free; the file needs up to {need:.0f} MiB)" if full else str(e)
+        raise ResultWriteError(
+            errno.ENOSPC if full else getattr(e, "errno", None) or errno.EIO,
+            f"cannot write {path}: {what}. The finished runs are kept in {parts_dir(path)}; run the same command again to write the file",
+        ) from e
     _fsync_dir(path.parent)
 
 
@@ -198,4 +367,18 @@ def write_run(ds: xr.Dataset, path: str | Path) -> None:
     safe.to_netcdf(path, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
 
 
-__all__ = ["ShardStore", "netcdf_ready", "StudyStateError", "open_result", "parts_dir", "result_attrs", "write_result", "write_run"]
+__all__ = [
+    "ResultWriteError",
+    "ShardStore",
+    "StudyLock",
+    "StudyLockedError",
+    "StudyStateError",
+    "netcdf_ready",
+    "open_result",
+    "parts_dir",
+    "read_study_json",
+    "remove_stale_temps",
+    "result_attrs",
+    "write_result",
+    "write_run",
+]

@@ -42,7 +42,7 @@ _NONNEG = ">= 0"
 
 def check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: float | None = None) -> float:
     """Validate a scalar: finite float satisfying ``rule``; raise ValueError naming it."""
-    if isinstance(value, (bool, np.bool_)):
+    if isinstance(value, (bool, np.bool_, str, bytes)):  # "0.4" is not converted silently
         raise ValueError(f"{name}={value!r} is not a number (allowed: a finite value {rule})")
     try:
         x = float(value)
@@ -97,7 +97,7 @@ class PhysicalRange:
         ValueError
             Otherwise, naming ``name``, the value and the range.
         """
-        if isinstance(value, (bool, np.bool_)):
+        if isinstance(value, (bool, np.bool_, str, bytes)):  # "0.4" is not converted silently
             raise ValueError(f"{name}={value!r} is not a number (allowed: {self.describe()})")
         try:
             x = float(value)

@@ -81,7 +81,7 @@ class TimeGrid:
     max_failed_steps: int = 0  # 0: never stop a run early (as simulate); studies use 1
 
 
-def _record_stride(n_steps: int, i0: int) -> tuple[int, int]:
+def record_stride(n_steps: int, i0: int) -> tuple[int, int]:
     """A recording stride that puts a row at step ``i0`` (and the last step), and that row."""
     k = math.gcd(n_steps, i0) if i0 > 0 else n_steps
     return k, (i0 // k if i0 > 0 else 0)
@@ -129,7 +129,16 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
     for i, row in enumerate(rows):
         try:  # the run's inputs are validated here, once (run_inputs), and trusted after
             spec = prepare(
-                run_inputs(shp, periods=grid.periods, dt=grid.dt, torque=grid.torque, rotation=grid.rotation, solver=solver, **row)
+                run_inputs(
+                    shp,
+                    periods=grid.periods,
+                    dt=grid.dt,
+                    torque=grid.torque,
+                    rotation=grid.rotation,
+                    solver=solver,
+                    max_record_bytes=math.inf,  # the kernel records the measured rows only (the study budget bounds them)
+                    **row,
+                )
             )
         except (ValueError, TypeError) as exc:
             errors[i] = str(exc)
@@ -139,7 +148,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
     groups: dict[tuple[int, int, int, int], list[int]] = {}
     for i, spec in specs.items():
         i0 = round(grid.transient_periods / spec.freq_hz / spec.dt)
-        stride, i0_row = _record_stride(spec.n_steps, i0)
+        stride, i0_row = record_stride(spec.n_steps, i0)
         groups.setdefault((spec.n_steps, stride, i0_row, spec.prm.size), []).append(i)
     geo = shp.geometry()
     buf = make_buffers(n_unknowns(geo.pstart))

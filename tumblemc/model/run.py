@@ -139,9 +139,13 @@ def run_inputs(
     lift_m: float = 0.0,
     v0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     omega0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    max_record_bytes: float = MAX_RECORD_BYTES,
     **overrides: Any,
 ) -> RunInputs:
     """Validate the inputs of one run: the one place where run inputs are checked.
+
+    ``max_record_bytes`` bounds the record of ``record_every`` (the batch kernel of a study
+    records only the rows it measures, bounded by the study's budget instead).
 
     Parameters are those of :func:`simulate`. The duration is either ``duration_s``
     (default 2 s, or a :class:`~tumblemc.fields.Sequence`'s total) or ``periods`` field
@@ -206,10 +210,10 @@ def run_inputs(
     if n_steps < 1:
         raise ValueError(f"duration_s={duration_s!r} is shorter than one step dt={dt!r} (allowed: duration_s >= dt)")
     rows = n_records(n_steps, record_every)
-    if rows * L.N_REC * 8 > MAX_RECORD_BYTES:
+    if rows * L.N_REC * 8 > max_record_bytes:
         raise ValueError(
             f"duration_s={duration_s!r} with dt={dt!r} and record_every={record_every} records {rows} rows "
-            f"({rows * L.N_REC * 8 / 2**30:.1f} GiB; allowed: up to {MAX_RECORD_BYTES / 2**30:.0f} GiB): raise record_every or dt"
+            f"({rows * L.N_REC * 8 / 2**30:.1f} GiB; allowed: up to {max_record_bytes / 2**30:.0f} GiB): raise record_every or dt"
         )
     lift_m = RANGES["lift_m"].check("lift_m", lift_m)
     if program is not None:

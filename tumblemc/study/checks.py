@@ -9,6 +9,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,6 +27,19 @@ class ConfigError(ValueError):
 
 MAX_GRID_VALUES = 10_001
 _INF = math.inf
+
+
+def read_config_text(path: Path) -> str:
+    """A config file's text (UTF-8); a file that is not names itself, the byte and its line and column."""
+    raw = path.read_bytes()
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw.count(b"\n", 0, e.start) + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise ConfigError(
+            "", f"{path}: not UTF-8 text: byte 0x{raw[e.start]:02x} at line {line}, column {col} (save the file as UTF-8)"
+        ) from None
 
 
 def config_error(key: str, value: Any, problem: str, allowed: str) -> ConfigError:

@@ -48,7 +48,8 @@ ci_level             confidence level of the intervals (default 0.95)
                      progress ratios of a checked run agree when they differ by at most
                      ``ratio_abs_tol + ratio_rel_tol * |fine ratio|`` (0.05, 0.1)
 [execution]          how to run, not what: ``batch_size`` (8), ``max_in_flight``,
-                     ``workers``; excluded from :func:`config_hash`
+                     ``workers``, and the bounds ``max_runs``, ``max_steps_per_run``,
+                     ``max_run_memory_gib`` (study/budget.py); excluded from :func:`config_hash`
 [uncertain.<param>]  one table per uncertain parameter (below); ``posterior = "calib.nc"``
                      samples a calibration posterior jointly (study/posterior.py)
 [field]              the field program: ``kind = "paper"`` (default) or ``"rotating"``
@@ -138,6 +139,7 @@ from tumblemc.model.params import PRESETS, RANGES
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
+from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget
 from tumblemc.study.checks import (
     ConfigError,
     check_choice,
@@ -151,6 +153,7 @@ from tumblemc.study.checks import (
     check_str_list,
     check_table,
     config_error,
+    read_config_text,
 )
 from tumblemc.study.distributions import DEFAULT_UNCERTAIN, Uncertain, nominal_value, parse_uncertain
 from tumblemc.study.fieldcfg import FieldConfig, parse_field
@@ -194,6 +197,9 @@ class ExecutionConfig:
     batch_size: int = 8
     max_in_flight: int | None = None
     workers: int | None = None
+    max_runs: int = MAX_RUNS  # bounds of what a study may cost (study/budget.py)
+    max_steps_per_run: int = MAX_STEPS_PER_RUN
+    max_run_memory_gib: float = MAX_RUN_MEMORY_GIB
 
 
 @dataclass(frozen=True)
@@ -336,7 +342,7 @@ def load_config(source: str | PathLike[str] | Mapping[str, Any] | StudyConfig) -
         return _parse(source)
     path = Path(source)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(read_config_text(path))
     except tomllib.TOMLDecodeError as e:
         raise ConfigError("", f"{path}: not valid TOML: {e}") from None
     try:
@@ -418,11 +424,16 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
         ratio_rel_tol=check_num("check.ratio_rel_tol", ct.get("ratio_rel_tol", 0.1), 0.0, 10.0),
     )
     et = check_table("execution", d.get("execution", {}))
-    check_no_unknown(et, ("batch_size", "max_in_flight", "workers"), "execution")
+    check_no_unknown(et, ("batch_size", "max_in_flight", "workers", "max_runs", "max_steps_per_run", "max_run_memory_gib"), "execution")
     execution = ExecutionConfig(
         batch_size=check_int("execution.batch_size", et.get("batch_size", 8), 1, 10**6),
         max_in_flight=None if et.get("max_in_flight") is None else check_int("execution.max_in_flight", et["max_in_flight"], 1, 10**6),
         workers=None if et.get("workers") is None else check_int("execution.workers", et["workers"], 1, 10**5),
+        max_runs=check_int("execution.max_runs", et.get("max_runs", MAX_RUNS), 1, 10**12),
+        max_steps_per_run=check_int("execution.max_steps_per_run", et.get("max_steps_per_run", MAX_STEPS_PER_RUN), 1, 10**15),
+        max_run_memory_gib=check_num(
+            "execution.max_run_memory_gib", et.get("max_run_memory_gib", MAX_RUN_MEMORY_GIB), 0.0, 1e6, lo_open=True
+        ),
     )
     field_cfg = parse_field(d.get("field", {}))
     unc_table, posterior = split_posterior(d.get("uncertain", DEFAULT_UNCERTAIN), base)
@@ -466,6 +477,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
                 nom = nominal_value(u.param, p, b)
                 where = f"field_mT={b:g}" if u.param == "field_mT" else f"preset {p!r} (nominal {u.param} = {nom:g})"
                 u.resolve(nom, where)
+    check_budget(cfg)
     return cfg
 
 

@@ -23,13 +23,10 @@ Guarantees
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
 import json
-import math
 import os
-import signal
+import shutil
 import sys
-import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,10 +38,21 @@ import xarray as xr
 from tumblemc.analysis.critical import expand_to_grid
 from tumblemc.analysis.maps import check_words
 from tumblemc.analysis.maps import maps as make_maps
-from tumblemc.io import ShardStore, StudyStateError, open_result, parts_dir, result_attrs, write_result
+from tumblemc.io import (
+    ShardStore,
+    StudyLock,
+    StudyStateError,
+    open_result,
+    parts_dir,
+    read_study_json,
+    remove_stale_temps,
+    result_attrs,
+    write_result,
+)
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_name
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
+from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
 from tumblemc.study.design import batch_row, check_inclines, check_subset, design, grid_of
@@ -200,34 +208,32 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
 
 
 class Progress:
-    """A text progress bar on stderr: runs done, runs/s and ETA (no dependency)."""
+    """The progress bar of a study on stderr (tqdm): runs done of all, rate, elapsed and ETA."""
 
     def __init__(self, total: int, done: int = 0, enabled: bool = True, stream: Any = None) -> None:
-        self.total, self.done, self.enabled = total, done, enabled
-        self.start_done = done
-        self.stream = stream or sys.stderr
-        self.t0 = time.perf_counter()
-        self.last = 0.0
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        from tqdm import tqdm
+
+        stream = stream or sys.stderr
+        tty = bool(getattr(stream, "isatty", lambda: False)())
+        self.bar = tqdm(
+            total=total,
+            initial=done,
+            disable=not enabled,
+            file=stream,
+            unit="run",
+            smoothing=0.05,
+            mininterval=0.2 if tty else 10.0,  # a log file gets a line every 10 s, not a stream of redraws
+            dynamic_ncols=True,
+            bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} runs [{elapsed}<{remaining}, {rate_fmt}]",
+        )
 
     def update(self, n: int) -> None:
-        """Count ``n`` more runs done and redraw (at most every 0.2 s on a terminal, 10 s otherwise)."""
-        self.done += n
-        now = time.perf_counter()
-        if self.enabled and (now - self.last > (0.2 if self.tty else 10.0) or self.done >= self.total):
-            self.last = now
-            rate = (self.done - self.start_done) / max(now - self.t0, 1e-9)
-            eta = (self.total - self.done) / rate if rate > 0 else math.inf
-            width = 30
-            fill = int(width * self.done / max(self.total, 1))
-            eta_s = "--" if not math.isfinite(eta) else str(_dt.timedelta(seconds=round(eta)))
-            line = f"[{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} runs  {rate:.2f} runs/s  ETA {eta_s}"
-            print(("\r" if self.tty else "") + line, end="" if self.tty else "\n", file=self.stream, flush=True)
+        """Count ``n`` more runs done."""
+        self.bar.update(n)
 
     def close(self) -> None:
-        """End the bar's line on a terminal."""
-        if self.enabled and self.tty:
-            print(file=self.stream, flush=True)
+        """End the bar."""
+        self.bar.close()
 
 
 def _execute(
@@ -302,20 +308,28 @@ def run_study(
     """
     cfg = config if isinstance(config, StudyConfig) else load_config(config)
     path = Path(out) if out is not None else default_output(cfg)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with StudyLock(path):  # a second `study run` on the same output is refused, not joined
+        return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
+
+
+def _run_locked(
+    cfg: StudyConfig, client: Any, path: Path, fresh: bool, progress: bool, batch_size: int | None, max_in_flight: int | None
+) -> StudyResult:
     cjson, chash = config_to_json(cfg), config_hash(cfg)
+    for t in remove_stale_temps(path):
+        _say(progress, f"removed {t.name}, left by an interrupted final write")
     if path.exists() and not fresh:
         stored = result_attrs(path).get("config_hash")
         if stored == chash:
             runs, maps = open_result(path)
-            if progress:
-                print(f"{path} is complete ({runs.sizes['run']} runs); nothing to do", file=sys.stderr)
+            _say(progress, f"{path} is complete ({runs.sizes['run']} runs); nothing to do")
             return StudyResult(runs, maps, path)
         if _parts_hash(path) != chash:  # an interrupted run of this config may replace it
             raise StudyStateError(
                 f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); "
                 "use --fresh (fresh=True) to replace it, or another --out"
             )
-    path.parent.mkdir(parents=True, exist_ok=True)
     store = ShardStore(path, cjson, chash)
     store.open(fresh=fresh)
 
@@ -325,14 +339,14 @@ def run_study(
     bs = int(batch_size or cfg.execution.batch_size)
     if client is not None and not (max_in_flight or cfg.execution.max_in_flight):
         client.wait_for_workers(1)  # a cluster that is still starting has no workers yet
-    mif = int(max_in_flight or cfg.execution.max_in_flight or (4 * _n_workers(client) if client is not None else 1))
-    todo_main = np.setdiff1d(np.arange(n), store.done("main"))
-    todo_check = np.setdiff1d(check_idx, store.done("check"))
+    mif = int(max_in_flight or cfg.execution.max_in_flight or (4 * n_workers(client) if client is not None else 1))
+    todo_main = np.setdiff1d(np.arange(n), _done(store, "main", progress))
+    todo_check = np.setdiff1d(check_idx, _done(store, "check", progress))
     tasks = plan(cfg, des, "main", todo_main, bs, chash) + plan(cfg, des, "check", todo_check, bs, chash)
     total = n + len(check_idx)
+    if len(todo_main) < n:
+        _say(progress, f"resuming {cfg.name}: {n - len(todo_main)} of {n} runs already done")
     bar = Progress(total, total - len(todo_main) - len(todo_check), enabled=progress)
-    if progress and len(todo_main) < n:
-        print(f"resuming {cfg.name}: {n - len(todo_main)} of {n} runs already done", file=sys.stderr)
 
     def on_result(kind: str, run: np.ndarray, outcome: dict[str, np.ndarray]) -> None:
         store.write(kind, run, outcome)
@@ -352,11 +366,30 @@ def run_study(
         maps = make_maps(expand_to_grid(runs, curve), level=cfg.ci_level, method=cfg.ci)
         maps.attrs["p_success_definition"] = "fraction of valid samples whose critical incline is at least incline_deg"
     attrs = provenance(cfg, cjson, chash)
-    maps.attrs.update(attrs)
-    runs.attrs.update(attrs)
+    # the root holds these (CF 2.7: a group's attributes apply to it and its descendants);
+    # each group keeps its own and config_hash (assemble_runs, analysis.maps.maps)
     write_result(path, runs, maps, attrs)
+    damaged = store.dir / "damaged"
+    if damaged.exists():  # kept for inspection: the shards were replaced by recomputed runs
+        keep = path.with_name(path.name + ".damaged")
+        shutil.rmtree(keep, ignore_errors=True)
+        os.replace(damaged, keep)
+        _say(True, f"the damaged shards set aside are in {keep}")
     store.remove()
     return StudyResult(runs, maps, path)
+
+
+def _say(enabled: bool, msg: str) -> None:
+    if enabled:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def _done(store: ShardStore, kind: str, progress: bool) -> np.ndarray:
+    """Finished runs of ``kind``; damaged shards are set aside (named on stderr) and their runs redone."""
+    done = store.done(kind)
+    for f, why in store.damaged:
+        print(f"warning: set aside {f.name} ({why}) in {f.parent / 'damaged'}; its runs will be simulated again", file=sys.stderr)
+    return done
 
 
 def _parts_hash(path: Path) -> str | None:
@@ -366,13 +399,6 @@ def _parts_hash(path: Path) -> str | None:
         return str(json.loads(meta.read_text())["config_hash"])
     except (OSError, ValueError, KeyError):
         return None
-
-
-def _n_workers(client: Any) -> int:
-    info = getattr(client, "scheduler_info", None)
-    if info is None:  # pragma: no cover - a client-like object without that call
-        return 1
-    return max(1, len(info().get("workers", {})))
 
 
 def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> dict[str, Any]:
@@ -387,24 +413,50 @@ def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLik
         return _complete_status(runs, p)
     cfg = load_config(p)
     path = Path(out) if out is not None else default_output(cfg)
+    chash = config_hash(cfg)
     if path.exists():
+        stored = result_attrs(path).get("config_hash")
+        if stored != chash:
+            return _other_config(path, str(stored))
         runs, _ = open_result(path)
         return _complete_status(runs, path)
+    store = ShardStore(path, config_to_json(cfg), chash)
+    meta = store.dir / "study.json"
+    if meta.exists():
+        stored = str(read_study_json(meta).get("config_hash"))
+        if stored != chash:
+            return _other_config(store.dir, stored)
     des = design(cfg)
     n = des.sizes["run"]
     nc = len(check_subset(des))
-    store = ShardStore(path, config_to_json(cfg), config_hash(cfg))
-    main = store.read("main")
+    main = store.read("main", set_aside=False)
+    damaged = list(store.damaged)
+    check_done = len(store.read("check", set_aside=False).get("run", ()))
+    damaged += store.damaged
     done = len(main.get("run", ()))
     failed = int(np.count_nonzero(main["status"] != 0)) if done else 0
-    return {
+    out_st: dict[str, Any] = {
         "state": "partial" if done or store.dir.exists() else "not started",
         "path": str(path),
         "done": done,
         "total": n,
-        "check_done": len(store.done("check")),
+        "check_done": check_done,
         "check_total": nc,
         "failed": failed,
+    }
+    if damaged:
+        out_st["damaged_shards"] = f"{len(damaged)} (set aside and simulated again by the next `study run`): " + ", ".join(
+            f"{f.name} {why}" for f, why in damaged
+        )
+    return out_st
+
+
+def _other_config(where: Path, stored: str) -> dict[str, Any]:
+    return {
+        "state": "different config",
+        "path": str(where),
+        "message": f"{where} holds runs of another config (hash {stored[:12]}), not of this one; "
+        "`study run --fresh` replaces them, or give another --out",
     }
 
 
@@ -426,36 +478,3 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
     if words:
         out["dt_check"] = words
     return out
-
-
-def warm_kernels() -> float:
-    """Compile (or load from the Numba cache) every kernel a study uses, in this process.
-
-    Workers started afterwards load them from the cache instead of compiling each.
-    """
-    t0 = time.perf_counter()
-    simulate_rows("cuboid", [{"preset": "paper", "freq_hz": 1000.0}], TimeGrid(periods=2.0))
-    return time.perf_counter() - t0
-
-
-def local_client(workers: int | None = None) -> Any:
-    """A ``dask.distributed`` client on an embedded LocalCluster.
-
-    One process per worker, one thread each (the kernels are single-threaded; processes
-    avoid any GIL contention in the Python layer), Numba's cache warmed in this process
-    first.
-    """
-    from distributed import Client, LocalCluster
-
-    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
-    warm_kernels()
-    n = int(workers or os.cpu_count() or 1)
-    # worker processes inherit an ignored SIGINT: Ctrl-C reaches only this process, which
-    # keeps the finished shards and shuts the cluster down (no traceback from each worker)
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50)
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    return Client(cluster)

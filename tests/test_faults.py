@@ -1,0 +1,262 @@
+"""Fault probes of the study engine (issue 16): what users and disks do to a study.
+
+Damaged and conflicting shards, a second `study run` on the same output, configs that no
+run could finish, a full disk in the final write, unreadable configs and records, a busy
+dashboard port. Each probe failed before the engine handled it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import socket
+import warnings
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import tumblemc
+from tumblemc.cli import main
+from tumblemc.io import ResultWriteError, StudyLock, StudyLockedError, StudyStateError, parts_dir
+from tumblemc.study.checks import ConfigError
+from tumblemc.study.config import load_config
+from tumblemc.study.engine import run_study, study_status
+from tests.test_engine import _to_toml, assert_same_result, tiny
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("ref") / "tiny.nc"
+    run_study(tiny(), out=out, progress=False)
+    return out
+
+
+def interrupted(out: Path, monkeypatch: pytest.MonkeyPatch, **changes: Any) -> list[Path]:
+    """Every shard of the tiny study, and no result: the run stops just before the final write."""
+
+    def stop(*a: Any, **k: Any) -> None:
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr("tumblemc.study.engine.write_result", stop)
+        with pytest.raises(KeyboardInterrupt):
+            run_study(tiny(**changes), out=out, progress=False, batch_size=1)
+    assert not out.exists()
+    return sorted(parts_dir(out).glob("main-*.npz"))
+
+
+def _npz(arrays: dict[str, np.ndarray]) -> bytes:
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def _named(folder: Path, stem: str, data: bytes) -> Path:
+    """A shard whose name carries the checksum of ``data`` (a well-formed shard)."""
+    p = folder / f"{stem}-{hashlib.sha256(data).hexdigest()[:16]}.npz"
+    p.write_bytes(data)
+    return p
+
+
+def _damage(shard: Path, how: str) -> Path:
+    """Damage ``shard`` as ``how`` says; returns the file the engine must name."""
+    raw = shard.read_bytes()
+    if how == "truncated":
+        shard.write_bytes(raw[: len(raw) // 2])
+        return shard
+    if how == "bit_flip":
+        b = bytearray(raw)
+        b[len(b) // 2] ^= 0x10
+        shard.write_bytes(bytes(b))
+        return shard
+    with np.load(shard) as z:
+        cols = {k: z[k] for k in z.files}
+    if how == "altered_values":  # a valid npz under the old name: only the checksum tells
+        cols["progress_ratio"] = cols["progress_ratio"] + 1.0
+        shard.write_bytes(_npz(cols))
+        return shard
+    stem = shard.stem.rsplit("-", 1)[0]
+    if how == "missing_column":  # well formed, checksum right, a column gone
+        shard.unlink()
+        del cols["climbed"]
+        return _named(shard.parent, stem, _npz(cols))
+    assert how == "conflicting"  # a second well-formed shard with other values for the same run
+    cols["progress_ratio"] = cols["progress_ratio"] + 1.0
+    return _named(shard.parent, stem, _npz(cols))
+
+
+@pytest.mark.parametrize("how", ["truncated", "bit_flip", "altered_values", "missing_column", "conflicting"])
+def test_a_damaged_shard_is_named_set_aside_and_recomputed(
+    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], how: str
+) -> None:
+    out = tmp_path / "tiny.nc"
+    shards = interrupted(out, monkeypatch)
+    bad = _damage(shards[1], how)
+    st = study_status(_toml(tmp_path), out)  # status reports it and moves nothing
+    assert bad.name in st["damaged_shards"] and bad.exists()
+    capsys.readouterr()
+    run_study(tiny(), out=out, progress=False)
+    err = capsys.readouterr().err
+    assert f"set aside {bad.name}" in err
+    assert_same_result(reference, out)
+    assert (out.with_name(out.name + ".damaged") / bad.name).exists()
+    assert not parts_dir(out).exists()
+
+
+def _toml(folder: Path, **changes: Any) -> Path:
+    p = folder / "tiny.toml"
+    p.write_text(_to_toml(tiny(**changes)))
+    return p
+
+
+def test_shards_carry_a_checksum_in_their_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    shards = interrupted(tmp_path / "tiny.nc", monkeypatch)
+    assert shards
+    for s in shards:
+        assert s.stem.rsplit("-", 1)[1] == hashlib.sha256(s.read_bytes()).hexdigest()[:16]
+        assert zipfile.is_zipfile(s)
+
+
+def test_a_second_run_on_the_same_output_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "tiny.nc"
+    toml = _toml(tmp_path)
+    with StudyLock(out):  # the first run holds the output
+        with pytest.raises(StudyLockedError, match="is being written by"):
+            run_study(tiny(), out=out, progress=False)
+        capsys.readouterr()
+        rc = main(["study", "run", str(toml), "--workers", "0", "--out", str(out), "--no-progress"])
+        err = capsys.readouterr().err
+        assert rc == 2 and err.count("\n") == 1 and "is being written by `tumblemc study run` (pid" in err
+        assert not parts_dir(out).exists()  # the refused run touched nothing
+    run_study(tiny(), out=out, progress=False)  # released: the next run proceeds
+    assert out.exists() and not out.with_name(out.name + ".lock").exists()
+
+
+@pytest.mark.parametrize(
+    ("changes", "key", "words"),
+    [
+        ({"periods": 1e6}, "periods", "beyond the simulator's 10000 s"),
+        ({"dt": 1e-9}, "dt", "steps per run"),
+        ({"samples": 1_000_000, "incline_deg": {"start": 0, "stop": 89, "step": 0.1}}, "samples", "runs in all"),
+        ({"periods": 2.5, "transient_periods": 1.1, "dt": 3.3e-8}, "transient_periods", "GiB per run"),
+    ],
+)
+def test_configs_no_run_could_finish_are_refused_at_validation(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], changes: dict[str, Any], key: str, words: str
+) -> None:
+    with pytest.raises(ConfigError, match=words) as e:
+        load_config(tiny(**changes))
+    assert e.value.key == key and "\n" not in str(e.value)
+    toml = tmp_path / "big.toml"
+    toml.write_text(_to_toml(tiny(**changes)))
+    out = tmp_path / "big.nc"
+    rc = main(["study", "run", str(toml), "--workers", "0", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and key in err
+    assert not parts_dir(out).exists() and not out.exists()
+
+
+def test_the_bounds_are_overridable_in_execution() -> None:
+    cfg = tiny(dt=1e-9)
+    cfg["execution"] = {"max_steps_per_run": 10**10, "max_run_memory_gib": 1e3}
+    assert load_config(cfg).dt == 1e-9
+    big = tiny(samples=1_000_000, incline_deg={"start": 0, "stop": 89, "step": 0.1})
+    big["execution"] = {"max_runs": 10**10}
+    assert load_config(big).samples == 1_000_000
+
+
+def test_a_full_disk_in_the_final_write_is_one_clear_line_and_resumes(
+    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "tiny.nc"
+    stale = tmp_path / ".tiny.nc.0123abcd.tmp"  # what a kill -9 in the final write leaves
+    stale.write_bytes(b"partial")
+    real = xr.Dataset.to_netcdf
+
+    def full(self: xr.Dataset, path: Any = None, *a: Any, **k: Any) -> Any:
+        if k.get("group") == "maps":  # the file exists and is half written when the disk fills
+            raise RuntimeError("NetCDF: HDF error")
+        return real(self, path, *a, **k)
+
+    class Usage:
+        free = 1024
+
+    toml = _toml(tmp_path)
+    with monkeypatch.context() as m:
+        m.setattr(xr.Dataset, "to_netcdf", full)
+        m.setattr("tumblemc.io.shutil.disk_usage", lambda p: Usage())
+        with pytest.raises(ResultWriteError, match="no space left on the disk"):
+            run_study(tiny(), out=out, progress=False)
+        rc = main(["study", "run", str(toml), "--workers", "0", "--out", str(out), "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "no space left on the disk" in err and "run the same command again" in err
+    assert not list(tmp_path.glob(".*.tmp")) and not out.exists() and parts_dir(out).exists()
+    run_study(tiny(), out=out, progress=False)
+    assert_same_result(reference, out)
+
+
+def test_unreadable_configs_and_records_name_the_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes(_to_toml(tiny()).encode() + b'description = "caf\xe9"\n')
+    with pytest.raises(ConfigError, match=r"latin1.toml: not UTF-8 text: byte 0xe9 at line \d+, column 19"):
+        load_config(bad)
+    out = tmp_path / "tiny.nc"
+    interrupted(out, monkeypatch)
+    (parts_dir(out) / "study.json").write_text("{not json")
+    with pytest.raises(StudyStateError, match=r"study.json is damaged .*--fresh"):
+        run_study(tiny(), out=out, progress=False)
+    with pytest.raises(StudyStateError, match="study.json is damaged"):
+        study_status(_toml(tmp_path), out)
+
+
+def test_status_of_a_changed_config_does_not_count_the_other_configs_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "tiny.nc"
+    interrupted(out, monkeypatch)
+    st = study_status(_toml(tmp_path, seed=99), out)
+    assert st["state"] == "different config" and "done" not in st and "--fresh" in st["message"]
+    assert study_status(_toml(tmp_path), out)["state"] == "partial"
+
+
+@pytest.mark.parametrize("value", ["0.4", b"0.4"])
+def test_a_string_for_a_number_is_refused(value: Any) -> None:
+    with pytest.raises(ValueError, match="mu=.*is not a number"):
+        tumblemc.simulate(mu=value, duration_s=0.01)
+
+
+def test_study_run_prints_a_header_and_a_success_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    toml = _toml(tmp_path)
+    rc = main(["study", "run", str(toml), "--workers", "0", "--out", str(tmp_path / "tiny.nc")])
+    cap = capsys.readouterr()
+    assert rc == 0
+    head = cap.err.splitlines()
+    assert head[0] == "study tiny: 6 runs = 2 cells (1 shape x 1 substrate x 2 inclines) x 3 samples, plus 2 dt-check runs at dt/2"
+    assert head[2].startswith("  rough estimate") and head[3].startswith("compiling kernels (first run only")
+    assert "P(success) by incline (deg)" in cap.out
+    assert "cuboid       aluminum" in cap.out and "climbs to" in cap.out
+
+
+@pytest.mark.slow
+def test_the_local_cluster_starts_with_port_8787_taken() -> None:
+    from tumblemc.study.engine import local_client
+
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind(("", 8787))
+            s.listen()
+        except OSError:  # another process holds it already: the case under test
+            pass
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            client = local_client(1)
+            try:
+                assert "8787" not in client.dashboard_link
+                assert client.submit(sum, [1, 2]).result() == 3
+            finally:
+                cluster = client.cluster
+                client.close()
+                cluster.close()

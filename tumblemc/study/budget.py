@@ -1,0 +1,76 @@
+"""What a study may cost, checked when its config is read, before anything runs.
+
+A config whose runs would all fail (a duration beyond the simulator's range) or that no
+machine could run (billions of runs, a run of billions of steps) is refused with one line
+naming the key, the value and the bound, instead of failing every run or dying of memory
+later. The bounds on the total runs, a run's steps and a run's memory live in
+``[execution]`` (``max_runs``, ``max_steps_per_run``, ``max_run_memory_gib``): they are
+not part of the study's identity, and a user who means it raises them there.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from tumblemc.kernels.layout import N_REC
+from tumblemc.kernels.stepper import n_records
+from tumblemc.model.params import RANGES
+from tumblemc.model.rows import record_stride
+from tumblemc.model.run import DEFAULT_DT
+from tumblemc.study.checks import config_error
+
+#: defaults of the ``[execution]`` bounds: about 100x the default study's 20,800 runs (its
+#: design table then takes a few hundred MB), 2,500x the steps of its runs (2 s at 5e-5 s:
+#: 40,000; about 10 min per run on one core), and the simulator's own record limit
+MAX_RUNS = 2_000_000
+MAX_STEPS_PER_RUN = 100_000_000
+MAX_RUN_MEMORY_GIB = 2.0
+
+
+def check_budget(cfg: Any) -> None:
+    """Raise :class:`~tumblemc.study.checks.ConfigError` if ``cfg`` exceeds a bound (module docstring)."""
+    ex = cfg.execution
+    dur_hi = RANGES["duration_s"].hi
+    for f in cfg.freq_hz:
+        dur = cfg.periods / f
+        if dur > dur_hi:
+            raise config_error(
+                "periods",
+                cfg.periods,
+                f"gives runs of {dur:g} s at freq_hz = {f:g}, beyond the simulator's {dur_hi:g} s",
+                f"periods <= {dur_hi * min(cfg.freq_hz):g} (= {dur_hi:g} s x the lowest freq_hz)",
+            )
+    n = cfg.n_runs
+    if n > ex.max_runs:
+        raise config_error(
+            "samples",
+            cfg.samples,
+            f"gives {n:,} runs ({n // cfg.samples:,} cells x {cfg.samples:,} samples)",
+            f"at most {ex.max_runs:,} runs in all; fewer samples or cells, or raise [execution] max_runs",
+        )
+    dt = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    key = "dt" if cfg.dt is not None else "periods"
+    for fine in (False, True):
+        h = dt / cfg.check.dt_factor if fine else dt
+        for f in cfg.freq_hz:
+            steps = round(cfg.periods / f / h)
+            what = f"at freq_hz = {f:g}" + (f" and the check's dt / {cfg.check.dt_factor}" if fine else "")
+            if steps > ex.max_steps_per_run:
+                raise config_error(
+                    key,
+                    cfg.dt if cfg.dt is not None else cfg.periods,
+                    f"gives runs of {steps:,} steps {what}",
+                    f"at most {ex.max_steps_per_run:,} steps per run; a larger dt or fewer periods, or raise [execution] max_steps_per_run",
+                )
+            i0 = round(cfg.transient_periods / f / h)
+            gib = n_records(steps, record_stride(steps, i0)[0]) * N_REC * 8 / 2**30
+            if gib > ex.max_run_memory_gib:
+                raise config_error(
+                    "transient_periods",
+                    cfg.transient_periods,
+                    f"makes each run record {gib:.3g} GiB {what} (transient and total periods share no step grid)",
+                    f"at most {ex.max_run_memory_gib:g} GiB per run; whole-number periods, or raise [execution] max_run_memory_gib",
+                )
+
+
+__all__ = ["MAX_RUNS", "MAX_RUN_MEMORY_GIB", "MAX_STEPS_PER_RUN", "check_budget"]
