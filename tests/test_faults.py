@@ -20,12 +20,12 @@ import pytest
 import xarray as xr
 
 import tumblemc
+from tests.test_engine import _to_toml, assert_same_result, tiny
 from tumblemc.cli import main
 from tumblemc.io import ResultWriteError, StudyLock, StudyLockedError, StudyStateError, parts_dir
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import load_config
 from tumblemc.study.engine import run_study, study_status
-from tests.test_engine import _to_toml, assert_same_result, tiny
 
 
 @pytest.fixture(scope="module")
