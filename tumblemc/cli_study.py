@@ -85,7 +85,7 @@ def study_header(cfg: Any, path: Path, where: str) -> str:
     dims = " x ".join(f"{len(v)} {k}{'s' if len(v) > 1 else ''}" for k, v in axes if len(v) > 1 or k in ("shape", "substrate"))
     lines = [
         f"study {cfg.name}: {n:,} runs = {n_cells} cells ({dims}) x {cfg.samples} samples"
-        + (f", plus {n_check:,} dt-check runs at dt/{cfg.check.dt_factor}" if n_check else ""),
+        + (f", plus {n_check:,} dt-check runs at dt/{cfg.check.dt_factor} ({n + n_check:,} in the progress bar)" if n_check else ""),
         f"  on {where}; output {path}",
         f"  rough estimate {_duration(work)} of single-core time (the progress bar's ETA measures the real rate)",
     ]

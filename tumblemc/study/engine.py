@@ -219,7 +219,7 @@ class Progress:
             total=total,
             initial=done,
             disable=not enabled,
-            file=stream,
+            file=stream if tty else _Lines(stream),
             unit="run",
             smoothing=0.05,
             mininterval=0.2 if tty else 10.0,  # a log file gets a line every 10 s, not a stream of redraws
@@ -234,6 +234,21 @@ class Progress:
     def close(self) -> None:
         """End the bar."""
         self.bar.close()
+
+
+class _Lines:
+    """A log file's view of a progress bar: each redraw on its own line instead of carriage-return overwrites."""
+
+    def __init__(self, stream: Any) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> None:
+        line = text.replace("\r", "").strip("\n")
+        if line.strip():
+            self.stream.write(line + "\n")
+
+    def flush(self) -> None:
+        self.stream.flush()
 
 
 def _execute(
