@@ -11,7 +11,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 import tumblemc
-from tumblemc.cli import format_table, main, parse_overrides, parse_value
+from tumblemc.cli import SUMMARY_UNITS, format_table, main, parse_overrides, parse_value
 from tumblemc.io import netcdf_ready
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.viz.run import plot_run, side_view_outline, strip_offsets
@@ -105,6 +105,13 @@ def test_parse_helpers():
     assert parse_overrides(["mu=0.4", "offset_deg = 10"]) == {"mu": 0.4, "offset_deg": 10.0}
     table = format_table({"a": 1.0, "long_name": True})
     assert table.splitlines() == ["a          1", "long_name  True"]
+    assert format_table({"mean_speed": 0.5, "climbed": True}, SUMMARY_UNITS).splitlines() == ["mean_speed  0.5 m/s", "climbed     True"]
+
+
+def test_shape_and_preset_list_their_choices(capsys):
+    assert main(["simulate", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "{cuboid,spiked,spiked_ends,curved}" in out and "{paper,aluminum}" in out
 
 
 def test_netcdf_ready_does_not_touch_input(short_run):

@@ -96,8 +96,24 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
     return out
 
 
-def format_table(d: dict[str, Any]) -> str:
-    """Aligned ``name  value`` lines."""
+#: units of the run summary (:func:`tumblemc.summarize`) as the CLI prints it; names not
+#: listed are counts or ratios
+SUMMARY_UNITS = {
+    "mean_speed": "m/s",
+    "ideal_speed": "m/s",
+    "max_penetration": "m",
+    "mean_slip_speed": "m/s",
+    "energy_gain_J": "J",
+    "field_work_bound_J": "J",
+    "lateral_drift": "m",
+    "heading_change_deg": "deg",
+    "duration": "s",
+    "progress": "m",
+}
+
+
+def format_table(d: dict[str, Any], units: dict[str, str] | None = None) -> str:
+    """Aligned ``name  value [unit]`` lines."""
     if not d:
         return ""
     width = max(len(k) for k in d)
@@ -107,7 +123,8 @@ def format_table(d: dict[str, Any]) -> str:
             text = f"{v:.6g}" if math.isfinite(v) else str(v)
         else:
             text = str(v)
-        lines.append(f"{k:<{width}}  {text}")
+        unit = (units or {}).get(k)
+        lines.append(f"{k:<{width}}  {text}" + (f" {unit}" if unit else ""))
     return "\n".join(lines)
 
 
@@ -233,7 +250,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         t = ds["time"].values
         summary = {"duration": float(t[-1] - t[0]), "progress": float(ds["progress"].values[-1]), "status": int(ds.attrs.get("status", 0))}
         print(f"(no steady-state summary: {exc})")
-    print(format_table(summary))
+    print(format_table(summary, SUMMARY_UNITS))
     status = int(ds.attrs.get("status", 0))
     if status != 0:
         meaning = {
