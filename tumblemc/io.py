@@ -61,11 +61,30 @@ def _fsync_dir(folder: Path) -> None:
 
 def _atomic_write_bytes(path: Path, data: bytes) -> None:
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        if e.errno == errno.ENOSPC:
+            raise ResultWriteError(
+                errno.ENOSPC,
+                f"no space left on the disk of {path.parent} ({_size(shutil.disk_usage(path.parent).free)} free) to write "
+                f"{path.name}; the finished runs are kept there: free space and run the same command again",
+            ) from e
+        raise
+
+
+def _size(nbytes: float) -> str:
+    """``nbytes`` in B, KiB, MiB or GiB."""
+    for unit in ("B", "KiB", "MiB"):
+        if nbytes < 1024:
+            return f"{nbytes:.0f} {unit}"
+        nbytes /= 1024
+    return f"{nbytes:.1f} GiB"
 
 
 class ShardStore:
@@ -307,10 +326,10 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
         os.replace(tmp, path)
     except (OSError, RuntimeError) as e:
         tmp.unlink(missing_ok=True)
-        need = (runs.nbytes + maps.nbytes) / 2**20
-        free = shutil.disk_usage(path.parent).free / 2**20
-        full = getattr(e, "errno", None) == errno.ENOSPC or free < max(2 * need, 64.0)
-        what = f"no space left on the disk of {path.parent} ({free:.0f} MiB free; the file needs up to {need:.0f} MiB)" if full else str(e)
+        need = runs.nbytes + maps.nbytes
+        free = shutil.disk_usage(path.parent).free
+        full = getattr(e, "errno", None) == errno.ENOSPC or free < max(2 * need, 64 * 2**20)
+        what = f"no space left on the disk of {path.parent} ({_size(free)} free)" if full else str(e)
         raise ResultWriteError(
             errno.ENOSPC if full else getattr(e, "errno", None) or errno.EIO,
             f"cannot write {path}: {what}. The finished runs are kept in {parts_dir(path)}; run the same command again to write the file",
