@@ -20,7 +20,7 @@ import pytest
 import xarray as xr
 
 import tumblemc
-from tumblemc.io import StudyStateError, open_result, parts_dir
+from tumblemc.io import StudyStateError, open_result, parts_dir, result_attrs
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.schema import TIMESTAMP_ATTRS
 from tumblemc.study.checks import ConfigError
@@ -120,18 +120,21 @@ def test_file_schema(reference: Path) -> None:
             assert "long_name" in var.attrs, name
             if var.dtype.kind in "fiu" and name not in ("quantile",):
                 assert "units" in var.attrs, name
-        for key in (
-            "Conventions",
-            "history",
-            "source",
-            "date_created",
-            "tumblemc_version",
-            "git_sha",
-            "config_json",
-            "config_hash",
-            "seed",
-        ):
-            assert key in ds.attrs, key
+        assert "config_hash" in ds.attrs  # ties a group read alone to its study (tests/test_cf.py: the rest is at the root)
+    root = result_attrs(reference)
+    for key in (
+        "Conventions",
+        "history",
+        "source",
+        "date_created",
+        "tumblemc_version",
+        "git_sha",
+        "git_dirty",
+        "config_json",
+        "config_hash",
+        "seed",
+    ):
+        assert key in root, key
     assert runs["status"].attrs["flag_meanings"] == "ok failed_steps nonfinite error energy_gain"
     assert maps["p_success"].attrs["ancillary_variables"].startswith("p_success_lower")
     # the whole file opens as a tree too

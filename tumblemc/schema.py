@@ -8,8 +8,14 @@ a run's time series (:data:`RUN_VARIABLES`), a study's coordinates
 (:data:`COORD_ATTRS`), run outcomes (:data:`OUTCOMES`, :data:`OUTCOME_ATTRS`), maps
 (:data:`MAP_VARIABLES`), the critical-incline outcomes and the numerical checks
 (:data:`GRID_CHECK_VARIABLES`, :data:`CRITICAL_CHECK_VARIABLES`), and the status flags
-(:data:`STATUS_FLAGS`, :data:`CONTACT_MODE_FLAGS`). The file-level CF/ACDD and
-provenance attributes are built by :func:`tumblemc.study.assemble.provenance`.
+(:data:`STATUS_FLAGS`, :data:`CONTACT_MODE_FLAGS`). A study file's root attributes are
+:data:`STUDY_FILE_ATTRS` plus those :func:`tumblemc.study.assemble.provenance` builds; its
+groups hold only their own (:data:`MAPS_FROM_RUNS_ATTRS`).
+
+CF standard names exist for few of these quantities: the table (geoscience) has ``time``
+but no magnetic flux density, rotation frequency, friction coefficient, incline of a bench
+plane (``ground_slope_angle`` is the Earth's surface) or success probability, so only
+``time`` carries one and the study files, which have no time axis, carry none.
 """
 
 from __future__ import annotations
@@ -225,6 +231,33 @@ CHECK_COLUMNS: dict[str, tuple[type, str, float]] = {
 
 
 TIMESTAMP_ATTRS = ("history", "date_created")
+
+
+#: root attributes (ACDD-1.3) every study file shares; the license is pyproject.toml's
+STUDY_FILE_ATTRS: dict[str, str] = {
+    "keywords": (
+        "tumbling microrobot, magnetic microrobot, rotating magnetic field, non-point contact, adhesion, friction, "
+        "inclined plane, complementarity time-stepping, Monte Carlo, robustness, uncertainty quantification"
+    ),
+    "license": "MIT",
+    "creator_name": "tumblemc developers",
+    "creator_type": "group",
+    "naming_authority": "tumblemc",
+    "references": (
+        "Xie, J., Bi, C., Cappelleri, D. J. and Chakraborty, N. (2019): Towards Dynamic Simulation Guided Optimal Design "
+        "of Tumbling Microrobots, Proceedings of the ASME 2019 International Design Engineering Technical Conferences and "
+        "Computers and Information in Engineering Conference (IDETC/CIE 2019), Anaheim, CA, USA, paper DETC2019-97306"
+    ),
+}
+
+
+#: attributes the ``maps`` group keeps from the ``runs`` group: the definitions its
+#: variables refer to (success threshold, dt check) and the study's config hash
+MAPS_FROM_RUNS_ATTRS = ("config_hash", "success_ratio", "check_dt_factor", "check_ratio_abs_tol", "check_ratio_rel_tol")
+
+
+#: the design's ``check_flag`` in a study file (int8 like the other flags; a bool mask in memory)
+CHECK_FLAG_ATTRS: dict[str, Any] = {"units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "no yes"}
 
 
 #: outcome columns of :func:`bisect_rows`

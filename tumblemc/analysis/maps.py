@@ -27,7 +27,7 @@ from scipy.special import ndtri
 from scipy.stats import beta
 
 from tumblemc.model.outcome import is_valid
-from tumblemc.schema import CELL_DIMS, CI_METHODS, COORD_ATTRS, MAP_VARIABLES, SWEEP_DIMS, annotate
+from tumblemc.schema import CELL_DIMS, CI_METHODS, COORD_ATTRS, MAP_VARIABLES, MAPS_FROM_RUNS_ATTRS, SWEEP_DIMS, annotate
 
 REQUIRED = ("shape", "substrate", "incline_deg", "status", "climbed", "progress_ratio", "mean_speed")
 
@@ -289,10 +289,10 @@ def maps(
         out[name].attrs["long_name"] = out[name].attrs["long_name"].replace("confidence interval", f"{pct} {method} confidence interval")
     out["p_success"].attrs.update(ci_attrs)
     out["progress_ratio_quantile"].attrs["quantile_method"] = "linear"
-    out.attrs.update({k: v for k, v in sorted(runs.attrs.items())})
+    out.attrs.update({k: runs.attrs[k] for k in MAPS_FROM_RUNS_ATTRS if k in runs.attrs})
     out.attrs.update(
         {
-            "title": f"success maps: {runs.attrs.get('title', 'tumblemc robustness study')}",
+            "title": "success maps per cell",
             "success_definition": "valid run (status 0) with climbed == 1; p_success = n_success / n_valid",
             "ci_method": method,
             "confidence_level": float(level),

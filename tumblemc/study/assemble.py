@@ -1,4 +1,4 @@
-"""The ``runs`` group of a study file, and the file's provenance attributes.
+"""The ``runs`` group of a study file, and the file's root (CF/ACDD, provenance) attributes.
 
 The group is built from the study's design and shards (grid and critical-incline modes,
 with the numerical dt check).
@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-import subprocess
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,54 +15,70 @@ import xarray as xr
 
 from tumblemc.analysis.critical import climbs_at
 from tumblemc.schema import (
+    CHECK_FLAG_ATTRS,
     CRITICAL_ATTRS,
     CRITICAL_CHECK_VARIABLES,
     CRITICAL_OUTCOMES,
     GRID_CHECK_VARIABLES,
     OUTCOME_ATTRS,
     OUTCOMES,
+    STUDY_FILE_ATTRS,
 )
-from tumblemc.study.config import StudyConfig
+from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig
 from tumblemc.study.design import check_inclines, study_dt
-from tumblemc.version import __version__
-
-
-def git_sha() -> str:
-    """The git commit of the tumblemc source tree, or ``"unknown"``."""
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=5, check=True)
-        return out.stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
+from tumblemc.version import __version__, build_info
 
 
 def provenance(cfg: StudyConfig, cjson: str, chash: str) -> dict[str, Any]:
-    """CF/ACDD global attributes and provenance of a study file."""
+    """Root attributes of a study file: CF/ACDD-1.3 global attributes and provenance.
+
+    The groups repeat none of them but ``config_hash`` (and the ``runs`` group
+    ``uncertain`` and ``success_ratio``, which define its columns).
+    """
     now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
     return {
-        "Conventions": "CF-1.10, ACDD-1.3",
+        "Conventions": "CF-1.10 ACDD-1.3",  # CF 2.6.1: blank-separated
         "title": f"tumblemc study {cfg.name}",
         "summary": cfg.description or f"Monte Carlo robustness study {cfg.name}",
+        **STUDY_FILE_ATTRS,
+        # the study's identity: the same id is the same config (seed included); the code
+        # that ran it is tumblemc_version and git_sha
+        "id": f"study-{cfg.name}-{chash[:16]}",
         "source": f"tumblemc {__version__}",
         "history": f"{now} tumblemc {__version__} run_study {cfg.name}",
         "date_created": now,
         "tumblemc_version": __version__,
-        "git_sha": git_sha(),
+        **build_info(),
         "study_name": cfg.name,
+        "mode": cfg.mode,
         "config_json": cjson,
         "config_hash": chash,
         "seed": int(cfg.seed),
+        "sampler": cfg.sampler,
+        "sampling_scheme": SAMPLING_SCHEME,
         "success_ratio": float(cfg.success_ratio),
         "uncertain": ",".join(cfg.uncertain_names),
     }
 
 
-def _with_outcomes(des: xr.Dataset, main: dict[str, np.ndarray], columns: dict[str, type], attrs: dict[str, dict[str, Any]]) -> xr.Dataset:
+def _with_outcomes(
+    cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], columns: dict[str, type], attrs: dict[str, dict[str, Any]]
+) -> xr.Dataset:
     """The design plus the outcome ``columns`` of every run (checked to be complete)."""
     n = des.sizes["run"]
     runs = des.copy()
     if len(main.get("run", ())) != n or not np.array_equal(main["run"], np.arange(n)):
         raise RuntimeError("internal error: the shards do not hold every run of the study")
+    # the design's attributes are the study's and go to the root (provenance); the group
+    # keeps what its columns need and the config hash that ties it to the root
+    runs.attrs = {
+        "title": "every run: design, outcome and numerical checks",
+        "config_hash": des.attrs["config_hash"],
+        "uncertain": des.attrs["uncertain"],
+        "success_ratio": float(cfg.success_ratio),
+    }
+    runs["check_flag"] = runs["check_flag"].astype(np.int8)
+    runs["check_flag"].attrs.update({**des["check_flag"].attrs, **CHECK_FLAG_ATTRS})
     for k, dtype in columns.items():
         runs[k] = ("run", main[k].astype(dtype))
         runs[k].attrs.update(attrs[k])
@@ -85,7 +99,7 @@ def assemble_runs(
     cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
 ) -> xr.Dataset:
     """The ``runs`` group: the design plus every run's outcome and the check subset."""
-    runs = _with_outcomes(des, main, OUTCOMES, OUTCOME_ATTRS)
+    runs = _with_outcomes(cfg, des, main, OUTCOMES, OUTCOME_ATTRS)
     runs["climbed"].attrs["ancillary_variables"] = "status progress_ratio"
     runs["progress_ratio"].attrs["ancillary_variables"] = "status"
     if len(check_idx):
@@ -139,7 +153,7 @@ def assemble_critical(
     of the check subset.
     """
     n = des.sizes["run"]
-    runs = _with_outcomes(des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
+    runs = _with_outcomes(cfg, des, main, CRITICAL_OUTCOMES, CRITICAL_ATTRS)
     runs["critical_incline_deg"].attrs["ancillary_variables"] = "status censored fails_at_deg"
     runs["run"].attrs.update(CRITICAL_CHECK_VARIABLES["run"])
     lo, hi = cfg.incline_range

@@ -1,0 +1,145 @@
+"""The study file's CF/ACDD metadata and provenance (issue 16).
+
+ACDD global attributes at the root, groups that hold only their own attributes, int8 flags
+with flag attributes, and the git commit and dirty flag of the code that wrote the file:
+read from the checkout, or recorded when the package was built.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import tomllib
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from tumblemc import version
+from tumblemc.io import open_result, result_attrs
+from tumblemc.schema import MAPS_FROM_RUNS_ATTRS, STUDY_FILE_ATTRS
+from tumblemc.study.engine import run_study
+
+ROOT = Path(__file__).resolve().parents[1]
+SHA = re.compile(r"[0-9a-f]{40}")
+
+#: ACDD-1.3 highly recommended and the recommended ones a study can fill in truthfully
+ACDD = (
+    "Conventions",
+    "title",
+    "summary",
+    "keywords",
+    "id",
+    "naming_authority",
+    "history",
+    "source",
+    "license",
+    "date_created",
+    "creator_name",
+    "creator_type",
+    "references",
+)
+
+#: root attributes a group may repeat: the config hash that ties it to its study, and
+#: (runs) the definitions of its columns that analysis reads from the group
+SHARED = {"config_hash", "success_ratio", "uncertain", "mode"}
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tomllib.loads((ROOT / "studies" / "smoke.toml").read_text())
+    d.update(
+        {"name": "cf", "incline_deg": [0, 60], "freq_hz": 10, "samples": 2, "check": {"fraction": 0.02, "min_runs": 2, "dt_factor": 2}}
+    )
+    out = tmp_path_factory.mktemp("cf") / "cf.nc"
+    run_study(d, out=out, progress=False)
+    return out
+
+
+def test_root_has_the_acdd_attributes(study: Path) -> None:
+    root = result_attrs(study)
+    for key in ACDD:
+        assert str(root.get(key, "")).strip(), key
+    assert root["Conventions"].split() == ["CF-1.10", "ACDD-1.3"]  # blank-separated (CF 2.6.1)
+    assert root["license"] == "MIT"
+    assert "Towards Dynamic Simulation Guided Optimal Design of Tumbling Microrobots" in root["references"]
+    assert {k: root[k] for k in STUDY_FILE_ATTRS} == STUDY_FILE_ATTRS
+    assert root["config_hash"][:16] in root["id"]
+
+
+def test_groups_do_not_repeat_the_root(study: Path) -> None:
+    root = result_attrs(study)
+    runs, maps = open_result(study)
+    for ds in (runs, maps):
+        assert set(ds.attrs) & set(root) <= SHARED | {"title"}, sorted(set(ds.attrs) & set(root))
+        assert ds.attrs["config_hash"] == root["config_hash"]
+        assert ds.attrs["title"] != root["title"]
+        # CF 2.7: Conventions only at the root
+        assert "Conventions" not in ds.attrs and "history" not in ds.attrs
+    # what analysis reads from the groups is still there
+    assert runs.attrs["uncertain"] == root["uncertain"] and runs.attrs["success_ratio"] == root["success_ratio"]
+    assert "check_dt_factor" in runs.attrs and "dt" in runs.attrs
+    assert set(maps.attrs) >= {"ci_method", "confidence_level", "success_definition", *MAPS_FROM_RUNS_ATTRS}
+
+
+def test_check_flag_is_int8_with_flag_attributes(study: Path) -> None:
+    runs, _ = open_result(study)
+    flag = runs["check_flag"]
+    assert flag.dtype == np.int8
+    np.testing.assert_array_equal(flag.attrs["flag_values"], [0, 1])
+    assert flag.attrs["flag_meanings"] == "no yes" and flag.attrs["units"] == "1"
+    np.testing.assert_array_equal(np.flatnonzero(flag.values), runs["check_run"].values)
+    for name, var in runs.variables.items():  # every flag variable: int8, flag_values of its type
+        if "flag_values" in var.attrs:
+            assert var.dtype == np.int8 and np.asarray(var.attrs["flag_values"]).dtype == np.int8, name
+            assert len(var.attrs["flag_values"]) == len(var.attrs["flag_meanings"].split()), name
+
+
+def test_study_file_has_no_standard_name_but_time_would(study: Path) -> None:
+    # the study file has no time axis, and no other quantity of it has a CF standard name
+    with xr.open_datatree(study, engine="netcdf4") as tree:
+        names = {v.attrs.get("standard_name") for node in tree.subtree for v in node.dataset.variables.values()}
+    assert names == {None}
+
+
+def test_provenance_has_a_commit_and_a_dirty_flag(study: Path) -> None:
+    root = result_attrs(study)
+    assert SHA.fullmatch(root["git_sha"]), root["git_sha"]
+    assert root["git_dirty"] in (0, 1)
+    assert root["git_sha_source"] in ("checkout", "build")
+    info = version.build_info()
+    assert info["git_sha"] == root["git_sha"] and info["git_sha_source"] == root["git_sha_source"]
+
+
+def _git(*args: str, cwd: Path) -> None:
+    subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args], cwd=cwd, check=True, capture_output=True)
+
+
+def test_checkout_commit_follows_the_tree_and_ignores_untracked_copies(tmp_path: Path) -> None:
+    """A tracked file reports its checkout's commit and dirty flag.
+
+    An untracked one (an installed package inside a clone's ignored .venv) reports none.
+    """
+    _git("init", "-q", cwd=tmp_path)
+    (tmp_path / "mod.py").write_text("x = 1\n")
+    _git("add", "mod.py", cwd=tmp_path)
+    _git("commit", "-q", "-m", "first", cwd=tmp_path)
+    sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=tmp_path, capture_output=True, text=True, check=True).stdout.strip()
+    assert version._checkout(tmp_path / "mod.py") == (sha, False)
+    (tmp_path / "mod.py").write_text("x = 2\n")
+    assert version._checkout(tmp_path / "mod.py") == (sha, True)
+    (tmp_path / "site").mkdir()
+    (tmp_path / "site" / "mod.py").write_text("x = 1\n")
+    assert version._checkout(tmp_path / "site" / "mod.py") is None
+
+
+def test_an_installed_package_reports_the_commit_it_was_built_from(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(version, "_checkout", lambda path=None: None)
+    assert version.build_info() == {"git_sha": "unknown", "git_dirty": -1, "git_sha_source": "none"}
+    built = types.ModuleType("tumblemc._build_info")
+    built.node, built.dirty = "g" + "ab" * 20, False  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "tumblemc._build_info", built)
+    assert version.build_info() == {"git_sha": "ab" * 20, "git_dirty": 0, "git_sha_source": "build"}
