@@ -143,3 +143,17 @@ def test_an_installed_package_reports_the_commit_it_was_built_from(monkeypatch: 
     built.node, built.dirty = "g" + "ab" * 20, False  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "tumblemc._build_info", built)
     assert version.build_info() == {"git_sha": "ab" * 20, "git_dirty": 0, "git_sha_source": "build"}
+
+
+def test_coordinate_variables_are_numeric_and_labels_round_trip(study: Path) -> None:
+    """CF 1.3/6.1: no string coordinate variable in the file; open_result restores the string index."""
+    for group in ("runs", "maps"):
+        with xr.open_dataset(study, group=group, engine="netcdf4") as raw:
+            for d in raw.dims:
+                if d in raw.variables:
+                    assert raw[d].dtype.kind in "iuf", (group, d)
+    with xr.open_dataset(study, group="maps", engine="netcdf4") as raw:
+        assert list(raw["shape_label"].values) == ["cuboid"] and raw["shape_label"].dims == ("shape",)
+    _, maps = open_result(study)
+    assert "shape" in maps.indexes and "shape_label" not in maps.variables
+    assert maps["p_success"].sel(shape="cuboid", substrate="aluminum").dims == ("incline_deg",)

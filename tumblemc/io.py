@@ -320,7 +320,7 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
         xr.Dataset(attrs=root_attrs).to_netcdf(tmp, mode="w", engine="netcdf4")
         for group, ds in (("runs", runs), ("maps", maps)):
             enc = {v: {"zlib": True, "complevel": 4} for v in ds.data_vars if ds[v].dtype.kind in "fiub"}
-            ds.to_netcdf(tmp, mode="a", group=group, engine="netcdf4", encoding=enc)
+            _to_cf_labels(ds).to_netcdf(tmp, mode="a", group=group, engine="netcdf4", encoding=enc)
         with open(tmp, "rb") as fh:  # on disk before the shards it replaces are removed
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -343,7 +343,31 @@ def open_result(path: str | Path) -> tuple[xr.Dataset, xr.Dataset]:
     if not path.exists():
         raise FileNotFoundError(f"{path} does not exist (a study result written by `tumblemc study run`)")
     with xr.open_dataset(path, group="runs", engine="netcdf4") as r, xr.open_dataset(path, group="maps", engine="netcdf4") as m:
-        return r.load(), m.load()
+        return _from_cf_labels(r.load()), _from_cf_labels(m.load())
+
+
+LABEL_SUFFIX = "_label"
+
+
+def _to_cf_labels(ds: xr.Dataset) -> xr.Dataset:
+    """String dimension coordinates (``shape``, ``substrate``) as CF label variables ``<dim>_label``.
+
+    CF wants coordinate variables numeric (CF 1.10, sections 1.3 and 6.1): the file stores
+    the dimension without a coordinate variable and the names as an auxiliary string
+    coordinate; :func:`open_result` restores the index, so ``maps.sel(shape="cuboid")``
+    works as before.
+    """
+    names = {d: f"{d}{LABEL_SUFFIX}" for d in ds.dims if d in ds.coords and ds[d].dtype.kind in "OUS"}
+    return ds.rename_vars(names) if names else ds
+
+
+def _from_cf_labels(ds: xr.Dataset) -> xr.Dataset:
+    """Undo :func:`_to_cf_labels`: ``<dim>_label`` back to the indexed coordinate ``<dim>``."""
+    for d in list(ds.dims):
+        lab = f"{d}{LABEL_SUFFIX}"
+        if d not in ds.coords and lab in ds.coords and ds[lab].dims == (d,):
+            ds = ds.rename_vars({lab: d}).set_xindex(str(d))
+    return ds
 
 
 def result_attrs(path: str | Path) -> dict[str, Any]:
