@@ -25,13 +25,14 @@ from tumblemc.analysis.sobol import saltelli_design, sobol_indices, split_saltel
 from tumblemc.model.params import RANGES
 from tumblemc.study.config import load_config
 from tumblemc.study.distributions import nominal_value
-from tumblemc.study.sobol import sobol_rows
+from tumblemc.study.sobol import salib_problem, salib_rows, sobol_rows
 from tumblemc.testing import (
     BOX_FAILURE_BOX,
     ISHIGAMI_BOUNDS,
     SYNTHETIC_ALL_SUCCESS,
     SYNTHETIC_SEPARATED,
     box_failure,
+    box_failure_indices,
     ishigami,
     ishigami_indices,
     linear_additive,
@@ -52,6 +53,13 @@ ISHIGAMI_N_SE = 3.0
 # (A_i - B_i)^2)
 LINEAR_S1_ATOL = 1e-3
 LINEAR_ST_ATOL = 1e-6
+# STATISTICAL: SALib's estimates on tumblemc's design, N = 2**10, inside tumblemc's 95%
+# bootstrap intervals (same estimators; SALib centres on the mean of every output, tumblemc
+# on that of yA and yB: measured difference 1e-6, interval half-widths ~0.05)
+SALIB_N = 2**10
+# REGRESSION: the physical export scaled by SALib against tumblemc's quantile functions;
+# a lognormal is exported without tumblemc's cut at <= 1e-6 of its mass
+PHYSICAL_RTOL = 1e-6
 # STATISTICAL: ~390 valid runs per cell; SE of Spearman rho under independence is
 # 1 / sqrt(n - 1) ~ 0.05, so |rho| < 0.2 is 4 SE; logistic coefficients within 4 SE.
 RHO_NULL_ATOL = 0.2
@@ -183,6 +191,92 @@ def test_sobol_indices_drop_non_finite_rows() -> None:
     np.testing.assert_array_equal(got["ST"].values, want["ST"].values)
     with pytest.raises(ValueError, match="constant"):
         sobol_indices(np.ones(8), np.ones(8), np.ones((2, 8)))
+
+
+def test_sobol_indices_binary_box_failure() -> None:
+    # a 0/1 output, as tumblemc's verdicts: indices of the box indicator in closed form
+    des = saltelli_design(ISHIGAMI_N, 3, seed=7)
+    ind = sobol_indices(*split_saltelli(box_failure(des.stack()), 3), n_boot=500, seed=1)
+    ref = box_failure_indices()
+    for key in ("S1", "ST"):
+        est = ind[key].values
+        assert np.all(np.abs(est - ref[key]) <= ISHIGAMI_N_SE * ind[f"{key}_se"].values + 1e-12), (key, est, ref[key])
+    # REGRESSION: x3 has no effect, so every AB_3 row equals its A row
+    assert ind["ST"].values[2] == 0.0 and ind["S1"].values[2] == 0.0
+
+
+# ---------------------------------------------------------------------- SALib interop
+
+SENS_CONFIG = {
+    "name": "sens",
+    "shapes": ["cuboid"],
+    "presets": ["paper", "aluminum"],
+    "incline_deg": [0, 30],
+    "field_mT": 20,
+    "freq_hz": 1,
+    "samples": 4,
+    "seed": 1,
+    # every distribution kind, absolute and relative
+    "uncertain": {
+        "mu": {"dist": "truncnormal", "rel_sd": 0.15},
+        "adhesion_C": {"dist": "lognormal", "cv": 0.3},
+        "offset_deg": {"dist": "normal", "sd": 5.0},
+        "magnetization": {"dist": "uniform", "rel_low": 0.9, "rel_high": 1.1},
+        "e_r": {"dist": "triangular", "rel_low": 0.8, "rel_high": 1.2},
+    },
+}
+
+
+def test_salib_problem_round_trip() -> None:
+    config = load_config(SENS_CONFIG)
+    d = len(config.uncertain)
+    U, rows = sobol_rows(config, 8, 3, "cuboid", "aluminum", 30.0)
+    unit = salib_problem(config, "aluminum")
+    assert unit == {"num_vars": d, "names": list(config.uncertain_names), "bounds": [[0.0, 1.0]] * d, "dists": ["unif"] * d}
+    assert salib_rows(config, unit, U, "cuboid", "aluminum", 30.0) == rows
+    # columns in another order, named by the problem
+    perm = np.arange(d)[::-1]
+    shuffled = {**unit, "names": [unit["names"][j] for j in perm]}
+    assert salib_rows(config, shuffled, U[:, perm], "cuboid", "aluminum", 30.0) == rows
+    # physical space: the values themselves
+    phys = salib_problem(config, "aluminum", space="physical")
+    assert phys["names"] == unit["names"] and set(phys["dists"]) == {"truncnorm", "lognorm", "unif", "triang"}
+    X = np.array([[r[p] for p in phys["names"]] for r in rows])
+    assert salib_rows(config, phys, X, "cuboid", "aluminum", 30.0) == rows
+    with pytest.raises(ValueError, match="not the config's uncertain parameters"):
+        salib_rows(config, {**unit, "names": ["mu", *unit["names"][1:]]}, U, "cuboid", "aluminum", 30.0)
+    with pytest.raises(ValueError, match="neither a unit-space problem"):
+        salib_rows(config, phys, X, "cuboid", "paper", 30.0)  # paper's nominals differ
+    with pytest.raises(ValueError, match="outside its physical range"):
+        salib_rows(config, phys, np.where(np.arange(d) == phys["names"].index("mu"), -1.0, X[:1]), "cuboid", "aluminum", 30.0)
+
+
+def test_salib_physical_export_matches_tumblemc_quantiles() -> None:
+    util = pytest.importorskip("SALib.util")
+    config = load_config(SENS_CONFIG)
+    U, rows = sobol_rows(config, 16, 4, "curved", "paper", 0.0)
+    phys = salib_problem(config, "paper", space="physical")
+    got = util.scale_samples(U.copy(), phys)
+    want = np.array([[r[p] for p in phys["names"]] for r in rows])
+    np.testing.assert_allclose(got, want, rtol=PHYSICAL_RTOL)
+
+
+def test_salib_sobol_agrees_within_bootstrap_intervals() -> None:
+    pytest.importorskip("SALib")
+    from SALib.analyze import sobol as salib_sobol
+    from SALib.sample import sobol as salib_sample
+
+    problem = {"num_vars": 3, "names": ["x1", "x2", "x3"], "bounds": [list(b) for b in ISHIGAMI_BOUNDS]}
+    des = saltelli_design(SALIB_N, 3, seed=2)
+    # REGRESSION: SALib's sampler with a Generator seed is tumblemc's design, scaled
+    X = salib_sample.sample(problem, SALIB_N, calc_second_order=False, seed=np.random.default_rng(2))
+    np.testing.assert_allclose(X, _unit_to(ISHIGAMI_BOUNDS, des.stack()), rtol=1e-12, atol=1e-12)
+    y = ishigami(X)
+    ours = sobol_indices(*split_saltelli(y, 3), n_boot=1000, seed=0)
+    theirs = salib_sobol.analyze(problem, y, calc_second_order=False, num_resamples=100, seed=1)
+    for key in ("S1", "ST"):
+        lo, hi = ours[f"{key}_lower"].values, ours[f"{key}_upper"].values
+        assert np.all((lo <= theirs[key]) & (theirs[key] <= hi)), (key, lo, theirs[key], hi)
 
 
 # ------------------------------------------------------------------- per-cell analyses
@@ -324,3 +418,20 @@ def test_robot_sobol_end_to_end_small() -> None:
     # every run of the design ran and gave a finite progress ratio
     assert idx.attrs["n_used"] == 4 and idx.attrs["n_dropped"] == 0
     assert np.all(np.isfinite(idx["ST"].values)) and np.all(np.isfinite(idx["S1"].values))
+
+
+@pytest.mark.slow
+def test_the_salib_morris_example_in_the_docs_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/libraries.md's Morris example, as written (100 runs of the default study's cell)."""
+    import re
+
+    pytest.importorskip("SALib")
+    root = Path(__file__).resolve().parents[1]
+    code = re.findall(r"```python\n(.*?)```", (root / "docs" / "libraries.md").read_text(), re.S)
+    assert len(code) == 1
+    monkeypatch.chdir(root)
+    ns: dict[str, Any] = {}
+    exec(code[0], ns)  # noqa: S102 - the documentation's own example
+    Si = ns["Si"]
+    assert list(Si["names"]) == ["adhesion_C", "magnetization", "mu", "offset_deg"]
+    assert np.all(np.isfinite(Si["mu_star"])) and np.all(np.asarray(Si["mu_star"]) >= 0)

@@ -8,7 +8,8 @@ Every function here has a known answer, so an estimator can be checked against i
 - :func:`linear_additive` with :func:`linear_indices`: an additive model where first
   order and total indices are equal and known.
 - :func:`box_failure` with :data:`BOX_FAILURE_BOX`: a binary outcome that is 1 exactly in
-  a known axis-aligned box (the answer scenario discovery / PRIM should find).
+  a known axis-aligned box (the answer scenario discovery / PRIM should find), with its
+  closed-form Sobol indices :func:`box_failure_indices` (a 0/1 benchmark).
 - :func:`synthetic_runs`: a study ``runs`` Dataset (the schema of
   :mod:`tumblemc.analysis`) whose outcome depends on ``mu`` only, with an all-success cell,
   a perfectly separated cell and invalid runs.
@@ -155,6 +156,38 @@ def box_failure(X: ArrayLike, box: Mapping[int, tuple[float, float]] | None = No
     return inside.astype(np.int8)
 
 
+def box_failure_indices(d: int = 3, box: Mapping[int, tuple[float, float]] | None = None) -> dict[str, np.ndarray]:
+    """Closed-form Sobol indices of :func:`box_failure` with inputs uniform on [0, 1]^d.
+
+    Parameters
+    ----------
+    d : int
+        Number of inputs (columns outside the box have indices 0).
+    box : mapping of int to (float, float), optional
+        As :func:`box_failure` (default :data:`BOX_FAILURE_BOX`).
+
+    Returns
+    -------
+    dict
+        ``S1``, ``ST``: (d,) float64 arrays; ``V`` (0-d array): the output variance.
+
+    Notes
+    -----
+    With ``p_i = hi_i - lo_i`` and ``P = prod p_i``, the output is Bernoulli(``P``), so
+    ``V = P (1 - P)``; ``E[y | x_i] = 1_i P / p_i`` gives ``S1_i = P (1 - p_i) / (p_i (1 - P))``
+    and ``E[Var(y | x_~i)] = P (1 - p_i)`` gives ``ST_i = (1 - p_i) / (1 - P)``. A 0/1
+    benchmark for the estimators on a success/failure verdict.
+    """
+    b = BOX_FAILURE_BOX if box is None else box
+    p = {j: hi - lo for j, (lo, hi) in b.items()}
+    P = math.prod(p.values())
+    s1, st = np.zeros(d), np.zeros(d)
+    for j, pj in p.items():
+        s1[j] = P * (1.0 - pj) / (pj * (1.0 - P))
+        st[j] = (1.0 - pj) / (1.0 - P)
+    return {"S1": s1, "ST": st, "V": np.asarray(P * (1.0 - P))}
+
+
 class Cell(TypedDict):
     """A study cell by its coordinates (``incline_deg`` in degree)."""
 
@@ -271,6 +304,7 @@ __all__ = [
     "SYNTHETIC_SEPARATED",
     "Cell",
     "box_failure",
+    "box_failure_indices",
     "ishigami",
     "ishigami_indices",
     "linear_additive",

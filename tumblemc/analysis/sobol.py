@@ -161,8 +161,12 @@ def split_saltelli(y: ArrayLike, d: int) -> tuple[np.ndarray, np.ndarray, np.nda
 
 def _sobol_point(yA: np.ndarray, yB: np.ndarray, yAB: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """S1, ST over the last axis; leading axes broadcast (bootstrap replicates)."""
-    var = np.var(np.concatenate([yA, yB], axis=-1), axis=-1)
-    first = np.mean(yB[..., None, :] * (yAB - yA[..., None, :]), axis=-1)
+    pooled = np.concatenate([yA, yB], axis=-1)
+    var = np.var(pooled, axis=-1)
+    # centred on the pooled mean f0: the estimator is then shift-invariant, and its
+    # variance no longer grows with f0^2 (docs/libraries.md measures the difference)
+    f0 = np.mean(pooled, axis=-1, keepdims=True)
+    first = np.mean((yB - f0)[..., None, :] * (yAB - yA[..., None, :]), axis=-1)
     total = 0.5 * np.mean((yA[..., None, :] - yAB) ** 2, axis=-1)
     ok = var > 0.0
     v = np.where(ok, var, 1.0)[..., None]
@@ -209,10 +213,10 @@ def sobol_indices(
 
     Notes
     -----
-    With ``V`` the variance of the pooled ``yA`` and ``yB``:
+    With ``f0`` and ``V`` the mean and variance of the pooled ``yA`` and ``yB``:
 
-    - first order (Saltelli et al. 2010, table 2 (b)):
-      ``S1_i = mean(yB (yAB_i - yA)) / V``;
+    - first order (Saltelli et al. 2010, table 2 (b), on outputs centred by ``f0``, as
+      SALib does): ``S1_i = mean((yB - f0) (yAB_i - yA)) / V``;
     - total (Jansen 1999; Saltelli et al. 2010, table 2 (f)):
       ``ST_i = mean((yA - yAB_i)^2) / (2 V)``.
 
@@ -275,7 +279,7 @@ def sobol_indices(
 
     ds = xr.Dataset(
         {
-            "S1": var_(s1, "first-order Sobol index (Saltelli et al. 2010 estimator)"),
+            "S1": var_(s1, "first-order Sobol index (Saltelli et al. 2010 estimator, centred outputs)"),
             "S1_lower": var_(lo1, f"lower bound of the {pct} bootstrap percentile interval of S1"),
             "S1_upper": var_(hi1, f"upper bound of the {pct} bootstrap percentile interval of S1"),
             "S1_se": var_(se1, "bootstrap standard error of S1"),
@@ -294,7 +298,7 @@ def sobol_indices(
             "n_boot_degenerate": n_bad,
             "confidence_level": float(level),
             "bootstrap_seed": int(seed),
-            "S1_estimator": "mean(yB * (yAB_i - yA)) / V (Saltelli et al. 2010)",
+            "S1_estimator": "mean((yB - f0) * (yAB_i - yA)) / V, f0 = mean of yA and yB (Saltelli et al. 2010)",
             "ST_estimator": "mean((yA - yAB_i)**2) / (2 V) (Jansen 1999)",
         },
     )
