@@ -157,7 +157,8 @@ def _run(args: argparse.Namespace, format_table: Any) -> int:
     path = Path(args.out) if args.out else default_output(cfg)
     workers = args.workers if args.workers is not None else cfg.execution.workers
     n_workers = int(workers or os.cpu_count() or 1)
-    where = args.scheduler or ("this process (no dask)" if workers == 0 else f"a local dask cluster of {n_workers} worker processes")
+    procs = f"{n_workers} worker process" + ("es" if n_workers > 1 else "")
+    where = args.scheduler or ("this process (no dask)" if workers == 0 else f"a local dask cluster of {procs}")
     say = not args.no_progress
     if say:
         print(study_header(cfg, path, where), file=sys.stderr, flush=True)
