@@ -261,3 +261,26 @@ def test_the_local_cluster_starts_with_port_8787_taken() -> None:
                 cluster = client.cluster
                 client.close()
                 cluster.close()
+
+
+@pytest.mark.slow
+def test_a_concurrent_cli_run_is_refused_while_the_first_finishes(tmp_path: Path) -> None:
+    import time
+
+    from tests.test_engine import _cli
+
+    toml = tmp_path / "slow.toml"
+    toml.write_text(_to_toml(tiny(freq_hz=1, samples=4, incline_deg=[0, 30])))  # 8 runs of 2 s
+    out = tmp_path / "slow.nc"
+    first = _cli(["study", "run", str(toml), "--workers", "0", "--batch-size", "1", "--out", str(out), "--no-progress"])
+    deadline = time.time() + 120
+    while time.time() < deadline and not list(parts_dir(out).glob("main-*.npz")):
+        time.sleep(0.05)
+    assert first.poll() is None, "the first run ended before the second could start"
+    second = _cli(["study", "run", str(toml), "--workers", "0", "--out", str(out), "--no-progress"])
+    _, err2 = second.communicate(timeout=120)
+    assert second.returncode == 2 and err2.count("\n") == 1 and "is being written by" in err2, err2
+    assert first.poll() is None  # refused while the first is still running
+    _, err1 = first.communicate(timeout=300)
+    assert first.returncode == 0, err1
+    assert study_status(out)["state"] == "complete"
