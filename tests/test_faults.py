@@ -284,3 +284,18 @@ def test_a_concurrent_cli_run_is_refused_while_the_first_finishes(tmp_path: Path
     _, err1 = first.communicate(timeout=300)
     assert first.returncode == 0, err1
     assert study_status(out)["state"] == "complete"
+
+
+def test_shards_of_an_earlier_version_without_checksum_still_count(
+    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An interrupted study from before checksums resumes: its shards (a random 8-hex tag) are checked for structure only."""
+    out = tmp_path / "tiny.nc"
+    shards = interrupted(out, monkeypatch)
+    for s in shards:
+        s.rename(s.with_name(s.stem.rsplit("-", 1)[0] + "-0123abcd.npz"))
+    first = sorted(parts_dir(out).glob("main-*.npz"))[0]
+    first.write_bytes(first.read_bytes()[:100])  # a torn one is still caught
+    run_study(tiny(), out=out, progress=False)
+    assert_same_result(reference, out)
+    assert [p.name for p in (out.with_name(out.name + ".damaged")).iterdir()] == [first.name]
