@@ -1,4 +1,4 @@
-"""Study analysis: binomial intervals against scipy, maps against a naive loop, figures."""
+"""Study analysis: binomial intervals against scipy, maps against a naive loop, figures and their legibility."""
 
 from __future__ import annotations
 
@@ -8,10 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 from scipy.stats import binomtest
 
 from tumblemc.analysis.maps import check_summary, maps, proportion_ci
+from tumblemc.viz.ratio import RATIO_LINEAR
 from tumblemc.viz.study import plot_ratio_distribution, plot_study, plot_success_curves, plot_success_heatmap
+from tumblemc.viz.style import MAX_FIG_W, format_penetration
+from tumblemc.viz.validation import plot_adhesion_series, plot_convergence, plot_paper_inclines
 
 # regression tolerances: closed form (Wilson) and beta quantiles (Clopper-Pearson) against
 # scipy's formula and root finding (measured: at most 5e-13 apart).
@@ -266,3 +272,115 @@ def test_bounds_with_invalid_runs() -> None:
     assert float(c["p_success"]) == 4 / 6
     assert float(c["p_success_invalid_as_failure"]) == 4 / 10
     assert float(c["p_success_invalid_as_success"]) == 8 / 10
+
+
+# --- legibility of the study and validation figures (issue 16) ---------------------------
+
+
+def _sliding_runs() -> xr.Dataset:
+    """Synthetic runs where a third of the valid runs slide far down (ratios to -5000)."""
+    r = synthetic_runs(seed=3, per_cell=6, check=False)
+    ratio = r["progress_ratio"].values.copy()
+    slide = np.isfinite(ratio) & (np.arange(ratio.size) % 3 == 0)
+    ratio[slide] = -np.geomspace(3.0, 5000.0, int(slide.sum()))
+    return r.assign(progress_ratio=("run", ratio))
+
+
+def _axes_frac(ax: Axes, y: float) -> float:
+    return float(ax.transAxes.inverted().transform(ax.transData.transform((0.0, y)))[1])
+
+
+def test_ratio_axis_keeps_threshold_readable_when_runs_slide_away() -> None:
+    fig = plot_ratio_distribution(_sliding_runs())
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    assert len(panels) == len(SUBSTRATES)
+    for ax in panels:
+        lo, hi = ax.get_ylim()
+        assert ax.get_yscale() == "symlog" and lo <= -5000.0 and lo < 0.5 < hi
+        # the linear band around the threshold takes at least 40% of the height
+        assert _axes_frac(ax, RATIO_LINEAR) - _axes_frac(ax, -RATIO_LINEAR) >= 0.4
+        assert any(np.allclose(ln.get_ydata(), 0.5) for ln in ax.get_lines())  # the threshold line
+        labels = [t.get_text() for t in ax.get_yticklabels()]
+        assert "0" in labels and "1" in labels and "-1000" in labels
+
+
+def test_ratio_axis_linear_when_ratios_are_small(runs: xr.Dataset) -> None:
+    fig = plot_ratio_distribution(runs)
+    for ax in (ax for ax in fig.axes if ax.get_title()):
+        lo, hi = ax.get_ylim()
+        assert ax.get_yscale() == "linear" and lo < 0.5 < hi
+
+
+def _wide_maps(copies: int) -> xr.Dataset:
+    """Maps with ``copies`` x 4 inclines: the synthetic runs repeated at shifted inclines."""
+    r = synthetic_runs(seed=11, per_cell=4, check=False)
+    parts = [r.assign(incline_deg=("run", r["incline_deg"].values + 0.25 * k)) for k in range(copies)]
+    return maps(xr.concat(parts, dim="run"))
+
+
+@pytest.mark.parametrize("copies", [1, 4, 12])
+def test_heatmap_text_legible_and_inside_cells(copies: int) -> None:
+    m = _wide_maps(copies)
+    fig = plot_success_heatmap(m)
+    assert fig.get_figwidth() <= MAX_FIG_W + 1.5
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    nx, ny = m.sizes["incline_deg"], m.sizes["shape"]
+    n_texts = 0
+    for ax in (ax for ax in fig.axes if ax.get_title()):
+        box = ax.get_window_extent()
+        for t in ax.texts:
+            n_texts += 1
+            assert t.get_fontsize() >= 8.0
+            assert t.get_window_extent(renderer).width <= box.width / nx  # within its cell's width
+    if copies == 1:  # big cells: probability, interval and invalid count
+        assert n_texts > nx * ny * len(SUBSTRATES)
+        assert any("\u2013" in t.get_text() for ax in fig.axes for t in ax.texts)
+
+
+def test_format_penetration_hides_round_off() -> None:
+    assert format_penetration(7.11e-19) == "< 0.001 nm"
+    assert format_penetration(0.0) == "< 0.001 nm"
+    assert format_penetration(1.234e-8) == "12.3 nm"
+    assert format_penetration(float("nan")) == "n/a"
+
+
+def _texts_inside_figure(fig: Figure) -> None:
+    """Nothing drawn (labels, titles, legends) sticks out of the figure."""
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()  # the constrained layout
+    tight = fig.get_tightbbox(renderer)
+    frame = fig.bbox_inches
+    assert tight.x0 >= frame.x0 - 0.01 and tight.y0 >= frame.y0 - 0.01
+    assert tight.x1 <= frame.x1 + 0.01 and tight.y1 <= frame.y1 + 0.01
+
+
+def test_convergence_figure_ticks_apart_and_every_case_on_scale() -> None:
+    dts = (5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)
+    table = [
+        {"case": case, "torque": torque, "dt": dt, "progress_ratio": base + 100 * dt}
+        for case, base in (("climbs", 1.0), ("slides", -40.0))
+        for torque in ("start", "end")
+        for dt in dts
+    ]
+    fig = plot_convergence(table, ["climbs", "slides"], mark_dt=5e-5)
+    _texts_inside_figure(fig)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    for ax in fig.axes:
+        lo, hi = ax.get_ylim()
+        for ln in ax.get_lines():
+            y = np.asarray(ln.get_ydata(), dtype=float)
+            if y.size > 2:
+                assert lo <= y.min() and y.max() <= hi
+        boxes = sorted((t.get_window_extent(renderer) for t in ax.get_xticklabels() if t.get_text()), key=lambda b: b.x0)
+        assert all(a.x1 < b.x0 for a, b in itertools.pairwise(boxes))
+
+
+def test_validation_figures_keep_labels_inside() -> None:
+    t = np.linspace(0.0, 2.0, 200)
+    adh = np.where(np.sin(2 * np.pi * t) > 0.5, 1.19e-6, 1e-8)
+    _texts_inside_figure(plot_adhesion_series(t, adh, {"face, C L W": 1.19e-6, "end, C W H": 1.49e-7}, "adhesion"))
+    fig = plot_paper_inclines([("5 deg", t, 1e-3 * t), ("60 deg", t, -1.0 * t)], "inclines")
+    _texts_inside_figure(fig)
+    labels = [x.get_text() for x in fig.axes[0].get_legend().get_texts()]
+    assert labels[0] == "5 deg" and "off the plot: -2,000 mm at 2 s" in labels[1]

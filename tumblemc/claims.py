@@ -19,12 +19,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from tumblemc.convergence import CONVERGENCE_CASES, convergence, default_dt, timed_run
 from tumblemc.model.params import PRESETS
 from tumblemc.model.run import DEFAULT_DT
 from tumblemc.model.shapes.library import get_shape
+from tumblemc.viz.style import PENETRATION_FLOOR_M, format_penetration
+from tumblemc.viz.validation import (
+    plot_adhesion_series,
+    plot_convergence,
+    plot_frequency_sweep,
+    plot_paper_inclines,
+    plot_shape_speeds,
+)
 
 _C = PRESETS["paper"].adhesion_C
 _L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
@@ -79,7 +86,7 @@ def _robust(rep: Report, name: str, s: dict[str, Any], wall: float) -> None:
             "substeps": s["substeps"],
             "fallbacks": s["fallbacks"],
             "mean_newton_iterations": round(s["mean_newton_iterations"], 3),
-            "max_penetration_m": f"{s['max_penetration']:.2e}",
+            "max_penetration_m": f"{s['max_penetration']:.2e}" if s["max_penetration"] >= PENETRATION_FLOOR_M else "< 1e-12",
             "wall_s": round(wall, 2),
         }
     )
@@ -87,9 +94,8 @@ def _robust(rep: Report, name: str, s: dict[str, Any], wall: float) -> None:
 
 def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     """Inclines on paper and aluminum, flat speed and frequency sweep, adhesion plateaus."""
-    fig = Figure(figsize=(8, 4.5))
-    ax = fig.add_subplot()
     inclines = (5, 10, 15, 30, 45, 60)
+    traces = []
     for th in inclines:
         ds, s, wall = timed_run(preset="paper", incline_deg=float(th))
         want = th <= 45
@@ -103,10 +109,8 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
             "pass" if ok else "FAIL",
         )
         _robust(rep, f"paper {th} deg", s, wall)
-        ax.plot(ds.time, ds.progress * 1e3, label=f"{th} deg")
-    ax.set(xlabel="time (s)", ylabel="uphill progress (mm)", title="paper preset, 20 mT, 1 Hz", ylim=(-3, 4))
-    ax.legend(fontsize=8)
-    fig.savefig(figdir / "paper_inclines.png", dpi=120)
+        traces.append((f"{th} deg", ds["time"].values, ds["progress"].values))
+    plot_paper_inclines(traces, "paper preset, 20 mT, 1 Hz", path=figdir / "paper_inclines.png")
 
     for th, want in ((30, True), (45, False)):
         ds, s, wall = timed_run(preset="aluminum", incline_deg=float(th))
@@ -209,15 +213,9 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
             "(sensitivity)",
             "report",
         )
-    fig = Figure(figsize=(7, 4))
-    ax = fig.add_subplot()
     fa = np.array(freqs, dtype=float)
-    ax.plot(fa, 2 * (_L + _H) * fa * 1e3, "k--", label="no-slip 2(L+H)f")
-    ax.plot(fa, np.array(speeds) * 1e3, "o-", label="simulated mean speed")
-    ax.plot(fa, np.array(slips) * 1e3, "s-", label="mean slip speed")
-    ax.set(xlabel="field frequency (Hz)", ylabel="mm/s", title="flat paper, 20 mT")
-    ax.legend()
-    fig.savefig(figdir / "frequency_sweep.png", dpi=120)
+    sweep_png = figdir / "frequency_sweep.png"
+    plot_frequency_sweep(fa, np.array(speeds), np.array(slips), 2 * (_L + _H) * fa, "flat paper, 20 mT", path=sweep_png)
 
     # adhesion plateaus on the 45 deg paper incline
     ds, s, _ = timed_run(preset="paper", incline_deg=45.0)
@@ -239,14 +237,8 @@ def paper_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
         "1.189e-6 N and 1.486e-7 N plateaus, ~0 in line contact",
         "pass" if ok else "FAIL",
     )
-    fig = Figure(figsize=(8, 3.5))
-    ax = fig.add_subplot()
-    ax.plot(ds.time, adh * 1e6, lw=0.8)
-    for v, lab in ((FACE_ADHESION, "C L W"), (END_ADHESION, "C W H")):
-        ax.axhline(v * 1e6, ls=":", c="gray")
-        ax.text(float(ds.time[-1]), v * 1e6, lab, va="bottom", ha="right", fontsize=8)
-    ax.set(xlabel="time (s)", ylabel="adhesion force (uN)", title="paper, 45 deg incline, 20 mT, 1 Hz")
-    fig.savefig(figdir / "adhesion_45deg.png", dpi=120)
+    plateaus = {"face, C L W": FACE_ADHESION, "end, C W H": END_ADHESION}
+    plot_adhesion_series(ds["time"].values, adh, plateaus, "paper, 45 deg incline, 20 mT, 1 Hz", path=figdir / "adhesion_45deg.png")
 
 
 SHAPE_ORDER = ("cuboid", "spiked", "spiked_ends", "curved")
@@ -291,15 +283,8 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
             "curved fastest, cuboid slowest",
             "pass" if ok else "FAIL",
         )
-    fig = Figure(figsize=(8, 4))
-    ax = fig.add_subplot()
-    x = np.arange(len(SHAPE_ORDER))
-    for j, preset in enumerate(("paper", "aluminum")):
-        ax.bar(x + 0.38 * (j - 0.5), [speeds[preset][k] * 1e3 for k in SHAPE_ORDER], 0.38, label=preset)
-    ax.plot(x, [get_shape(k).hull_perimeter * 10.0 * 1e3 for k in SHAPE_ORDER], "k_", ms=30, mew=2, label="no slip (hull perimeter x f)")
-    ax.set(xticks=x, xticklabels=SHAPE_ORDER, ylabel="mean speed (mm/s)", title="flat substrate, 20 mT, 10 Hz")
-    ax.legend(fontsize=8)
-    fig.savefig(figdir / "shape_speeds.png", dpi=120)
+    no_slip = {k: get_shape(k).hull_perimeter * 10.0 for k in SHAPE_ORDER}
+    plot_shape_speeds(speeds, no_slip, "flat substrate, 20 mT, 10 Hz", path=figdir / "shape_speeds.png")
 
     mismatched = []
     # both line-adhesion rules side by side (MODEL.md, "Forces"; issue 13, item 5): the strip
@@ -403,7 +388,7 @@ def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
         "R1",
         f"{n} runs, random tilt axes, offsets up to 30 deg (paper, flat, 1 Hz)",
         "failed steps; max penetration",
-        f"{fails}; {worst_pen:.2e} m",
+        f"{fails}; {format_penetration(worst_pen)}",
         "0; <= 1e-3 H = 1e-7 m",
         "pass" if ok else "FAIL",
     )
@@ -479,18 +464,7 @@ def run_validation(out_dir: str | Path = "validation", quick: bool = False) -> i
     _write_table(out / "claims", [vars(r) for r in rep.rows])
     _write_table(out / "convergence", table)
     _write_table(out / "robustness", rep.robustness)
-    fig = Figure(figsize=(9, 5))
-    axs = fig.subplots(1, 2, sharey=True)
-    for ax, torque in zip(axs, ("start", "end"), strict=True):
-        for name, _ in CONVERGENCE_CASES:
-            rows = [r for r in table if r["case"] == name and r["torque"] == torque]
-            ax.semilogx([r["dt"] for r in rows], [r["progress_ratio"] for r in rows], "o-", label=name)
-        ax.set(xlabel="dt (s)", title=f"torque at the {torque} of the step")
-        ax.axhline(0.5, c="gray", ls=":")
-    axs[0].set_ylabel("progress ratio")
-    axs[0].set_ylim(-1, 1.3)
-    axs[1].legend(fontsize=7)
-    fig.savefig(figdir / "convergence.png", dpi=120)
+    plot_convergence(table, [name for name, _ in CONVERGENCE_CASES], mark_dt=DEFAULT_DT, path=figdir / "convergence.png")
     n_fail = sum(r.verdict == "FAIL" for r in rep.rows)
     n_pass = sum(r.verdict == "pass" for r in rep.rows)
     print(f"claims: {n_pass} passed, {n_fail} not reproduced; wrote {out}/claims.md ({time.perf_counter() - t0:.0f} s)")

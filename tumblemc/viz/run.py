@@ -29,6 +29,7 @@ from matplotlib.figure import Figure
 from tumblemc.model.frames import plane_frame, quat_to_matrix
 from tumblemc.model.shapes.library import SHAPES, get_shape
 from tumblemc.model.shapes.types import Shape
+from tumblemc.viz.style import format_penetration
 
 UM = 1e6  # metres -> micrometres
 
@@ -130,7 +131,7 @@ def _summary_label(ds: xr.Dataset) -> str:
     return (
         f"mean speed {sm['mean_speed'] * 1e3:.3g} mm/s of ideal {sm['ideal_speed'] * 1e3:.3g} mm/s "
         f"(ratio {sm['progress_ratio']:.3f}, {'climbed' if sm['climbed'] else 'did not climb'}); "
-        f"failed steps {sm['failed_steps']}, max penetration {sm['max_penetration'] * 1e9:.3g} nm, status {sm['status']}"
+        f"failed steps {sm['failed_steps']}, max penetration {format_penetration(sm['max_penetration'])}, status {sm['status']}"
     )
 
 

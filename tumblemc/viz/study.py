@@ -22,23 +22,15 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from tumblemc.analysis.maps import check_summary, check_words, sort_runs
+from tumblemc.analysis.maps import check_summary, check_words
 from tumblemc.schema import SWEEP_DIMS
-from tumblemc.viz.style import CMAP, GOLDEN, SWEEP_LABELS, panel_grid, save_figure
-
-
-def _sweep_rows(ds: xr.Dataset, dims: Sequence[str]) -> list[dict[str, Any]]:
-    """One ``sel`` dict per combination of the swept field settings (``[{}]`` if none)."""
-    return [dict(zip(dims, combo, strict=True)) for combo in itertools.product(*(np.unique(ds[d].values).tolist() for d in dims))]
-
-
-def _row_label(sel: dict[str, Any]) -> str:
-    return ", ".join(f"{SWEEP_LABELS[d][0]} = {v:g} {SWEEP_LABELS[d][1]}" for d, v in sel.items())
+from tumblemc.viz.ratio import plot_ratio_distribution
+from tumblemc.viz.style import CMAP, MAX_FIG_W, panel_grid, panel_title, save_figure, sweep_rows
 
 
 def _substrates(available: np.ndarray, substrate: str | Sequence[str] | None) -> list[str]:
@@ -52,13 +44,12 @@ def _substrates(available: np.ndarray, substrate: str | Sequence[str] | None) ->
     return wanted
 
 
-def _title(sub: str, row: dict[str, Any]) -> str:
-    label = _row_label(row)
-    return f"substrate: {sub}" + (f"\n{label}" if label else "")
-
-
 def _map_dims(maps: xr.Dataset) -> list[str]:
     return [d for d in SWEEP_DIMS if d in maps.dims]
+
+
+#: font sizes of the heatmap cells, points: the probability and the interval line below it
+CELL_FONT, CELL_FONT_SMALL = 10.0, 8.0
 
 
 def plot_success_heatmap(
@@ -81,60 +72,103 @@ def plot_success_heatmap(
     Returns
     -------
     Figure
-        Colour is ``p_success`` on [0, 1]; each cell reads ``p`` and its confidence
-        interval ``[lower, upper]``; cells without valid runs are grey and hatched.
+        Colour is ``p_success`` on [0, 1]; cells without valid runs are grey and hatched.
+        Panels sit side by side, or stacked when that would make the figure wider than
+        :data:`~tumblemc.viz.style.MAX_FIG_W`. Cell text is never smaller than
+        :data:`CELL_FONT_SMALL`: each cell reads ``p`` (:data:`CELL_FONT`), its confidence
+        interval and the number of invalid runs when the cell is big enough on the
+        page; ``p`` alone (a ``*`` where runs are invalid) when only that fits; nothing
+        when not even that fits (the colour bar still reads).
     """
     subs = _substrates(maps["substrate"].values, substrate)
-    rows = _sweep_rows(maps, _map_dims(maps))
+    rows = sweep_rows(maps, _map_dims(maps))
     shapes = [str(s) for s in maps["shape"].values]
     incl = maps["incline_deg"].values
     nx, ny = incl.size, len(shapes)
-    fig, axes = panel_grid(len(rows), len(subs), max(3.2, 0.85 * nx + 1.0), max(2.0, 0.65 * ny + 1.0))
+    cell_w = float(np.clip(10.5 / nx, 0.15, 0.8))  # inches: 0.8 fits "0.93-1.00" at 8 pt
+    panel_w, panel_h = nx * cell_w + 1.4, ny * 0.6 + 1.0
+    side = len(subs) * panel_w + 1.2 <= MAX_FIG_W
+    fig, axes = panel_grid(len(rows) * (1 if side else len(subs)), len(subs) if side else 1, panel_w, panel_h)
     norm = Normalize(0.0, 1.0)
-    fontsize = 7.0 if nx <= 8 else 5.5
     mesh = None
-    for r, row in enumerate(rows):
-        for c, sub in enumerate(subs):
-            ax = axes[r, c]
-            m = maps.sel(substrate=sub, **row).transpose("shape", "incline_deg", ...)
-            p = m["p_success"].values
-            lo, hi = m["p_success_lower"].values, m["p_success_upper"].values
-            nv = m["n_valid"].values
-            nf = m["n_failed"].values
-            mesh = ax.pcolormesh(
-                np.arange(nx + 1) - 0.5,
-                np.arange(ny + 1) - 0.5,
-                np.ma.masked_invalid(p),
-                cmap=CMAP,
-                norm=norm,
-                edgecolors="w",
-                linewidth=0.5,
-            )
-            for j, i in itertools.product(range(ny), range(nx)):
-                if nv[j, i] == 0:
-                    ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1.0, 1.0, facecolor="0.85", edgecolor="0.55", hatch="///", lw=0.0))
-                    ax.text(i, j, "no valid\nruns", ha="center", va="center", fontsize=fontsize - 1, color="0.3")
-                    continue
-                colour = "w" if p[j, i] < 0.55 else "k"
-                text = f"{p[j, i]:.2f}\n[{lo[j, i]:.2f}, {hi[j, i]:.2f}]"
-                if nf[j, i] > 0:  # invalid runs are left out of p: say how many
-                    text += f"\n{int(nf[j, i])} invalid"
-                ax.text(i, j, text, ha="center", va="center", fontsize=fontsize, color=colour)
-            ax.set_xticks(np.arange(nx), [f"{v:g}" for v in incl])
-            ax.set_yticks(np.arange(ny), shapes)
-            ax.set_xlim(-0.5, nx - 0.5)
-            ax.set_ylim(ny - 0.5, -0.5)  # first shape on top
-            ax.set_xlabel("incline (deg)")
-            if c == 0:
-                ax.set_ylabel("shape")
-            ax.set_title(_title(sub, row), fontsize=9)
+    cells: list[tuple[Any, list[tuple[float, float, str, str, str]]]] = []
+    for (r, row), (c, sub) in itertools.product(enumerate(rows), enumerate(subs)):
+        ax = axes[r, c] if side else axes[r * len(subs) + c, 0]
+        m = maps.sel(substrate=sub, **row).transpose("shape", "incline_deg", ...)
+        p = m["p_success"].values
+        lo, hi = m["p_success_lower"].values, m["p_success_upper"].values
+        nv, nf = m["n_valid"].values, m["n_failed"].values
+        mesh = ax.pcolormesh(
+            np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, np.ma.masked_invalid(p), cmap=CMAP, norm=norm, edgecolors="w", linewidth=0.5
+        )
+        texts: list[tuple[float, float, str, str, str]] = []
+        for j, i in itertools.product(range(ny), range(nx)):
+            if nv[j, i] == 0:
+                ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1.0, 1.0, facecolor="0.85", edgecolor="0.55", hatch="///", lw=0.0))
+                texts.append((i, j, "none\nvalid", "", "0.3"))
+                continue
+            detail = f"{lo[j, i]:.2f}\u2013{hi[j, i]:.2f}" + (f"\n{int(nf[j, i])} invalid" if nf[j, i] > 0 else "")
+            texts.append((i, j, f"{p[j, i]:.2f}", detail, "w" if p[j, i] < 0.55 else "k"))
+        cells.append((ax, texts))
+        ax.set_xticks(np.arange(nx), [f"{v:g}" for v in incl])
+        ax.set_yticks(np.arange(ny), shapes)
+        ax.set_xlim(-0.5, nx - 0.5)
+        ax.set_ylim(ny - 0.5, -0.5)  # first shape on top
+        ax.set_xlabel("incline (deg)")
+        if c == 0 or not side:
+            ax.set_ylabel("shape")
+        ax.set_title(panel_title(sub, row), fontsize=10)
+    level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
+    method = maps["p_success_lower"].attrs.get("ci_method", "?")
     if mesh is not None:
         cb = fig.colorbar(mesh, ax=list(axes.ravel()), shrink=0.9)
-        method = maps["p_success_lower"].attrs.get("ci_method", "?")
-        level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
-        cb.set_label(f"P(success)  (cells: p [{level:.0%} {method} CI])", fontsize=8)
+        cb.set_label("P(success) of valid runs", fontsize=9)
+    # lay the panels out, so that cell sizes on the page are known, and keep one renderer
+    # to measure the texts with (Agg, as savefig uses for PNG)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    shown = {_annotate_cells(ax, texts, nx, ny, renderer) for ax, texts in cells}
+    notes = {
+        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid (left out of P)",
+        "p": f"cells: P(success); * some runs not valid (left out of P); {level:.0%} {method} intervals in success_curves",
+    }
+    words = "; ".join(notes[k] for k in ("full", "p") if k in shown)
+    if words:
+        fig.suptitle(words, fontsize=9)
     save_figure(fig, path)
     return fig
+
+
+def _annotate_cells(ax: Any, texts: list[tuple[float, float, str, str, str]], nx: int, ny: int, renderer: Any) -> str:
+    """Write the cell texts that fit the cells as laid out; returns the level written.
+
+    ``"full"`` (probability and detail lines), ``"p"`` (probability only) or ``"none"``;
+    a level is kept only if the texts of every cell fit inside it with a margin.
+    """
+    box = ax.get_window_extent()
+    cw, ch = 0.92 * box.width / nx, 0.92 * box.height / ny
+    for level in ("full", "p"):
+        made, fits = [], True
+        for i, j, top, detail, colour in texts:
+            if level == "full" and detail:
+                cell = [
+                    ax.text(i, j, top, ha="center", va="bottom", fontsize=CELL_FONT, color=colour),
+                    ax.text(i, j + 0.02, detail, ha="center", va="top", fontsize=CELL_FONT_SMALL, color=colour),
+                ]
+            else:
+                top += "*" if "invalid" in detail else ""
+                size = CELL_FONT if detail else CELL_FONT_SMALL
+                cell = [ax.text(i, j, top, ha="center", va="center", fontsize=size, color=colour)]
+            made += cell
+            ext = [t.get_window_extent(renderer) for t in cell]
+            # the two lines hang from the cell's centre: each half must fit
+            half = 2 * max(e.height for e in ext) if len(cell) > 1 else ext[0].height
+            fits &= max(e.width for e in ext) <= cw and half <= ch
+        if fits:
+            return level
+        for t in made:
+            t.remove()
+    return "none"
 
 
 def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None = None) -> Figure:
@@ -154,7 +188,7 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
         confidence interval of ``p_success``; cells without valid runs leave a gap.
     """
     subs = _substrates(maps["substrate"].values, None)
-    rows = _sweep_rows(maps, _map_dims(maps))
+    rows = sweep_rows(maps, _map_dims(maps))
     shapes = [str(s) for s in maps["shape"].values]
     x = maps["incline_deg"].values.astype(np.float64)
     fig, axes = panel_grid(len(rows), len(subs), 4.0, 2.8)
@@ -171,89 +205,12 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
             if c == 0:
                 ax.set_ylabel("P(success)")
             ax.grid(True, alpha=0.3)
-            ax.set_title(_title(sub, row), fontsize=9)
+            ax.set_title(panel_title(sub, row), fontsize=9)
             if r == 0 and c == 0:
-                ax.legend(fontsize=7, frameon=False, title="shape", title_fontsize=7)
+                ax.legend(fontsize=8, frameon=False, title="shape", title_fontsize=8)
     level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
     method = maps["p_success_lower"].attrs.get("ci_method", "?")
     fig.suptitle(f"success probability of valid runs; bands: {level:.0%} {method} confidence interval", fontsize=9)
-    save_figure(fig, path)
-    return fig
-
-
-def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Distribution of the progress ratio per cell: box and strip plots of the valid runs.
-
-    Parameters
-    ----------
-    runs : Dataset
-        Study runs (variables over ``run``).
-    path : path-like, optional
-        File to save the figure to (PNG, PDF, ... by its suffix); None saves nothing.
-
-    Returns
-    -------
-    Figure
-        A panel per substrate (and per swept field setting); inclines along x, a box per
-        shape at each incline; the dashed line is the success threshold
-        ``runs.attrs["success_ratio"]`` (default 0.5); runs that are not valid
-        (status != 0, no ratio) are red crosses along the bottom edge.
-    """
-    runs = sort_runs(runs)
-    thr = float(runs.attrs.get("success_ratio", 0.5))
-    subs = [str(s) for s in np.unique(runs["substrate"].values)]
-    sweep = [d for d in SWEEP_DIMS if d in runs.variables and np.unique(runs[d].values).size > 1]
-    rows = _sweep_rows(runs, sweep)
-    shapes = [str(s) for s in np.unique(runs["shape"].values)]
-    incl = np.unique(runs["incline_deg"].values)
-    ns = len(shapes)
-    width = 0.8 / ns
-    fig, axes = panel_grid(len(rows), len(subs), max(4.0, 0.6 * incl.size * max(ns, 2) / 2 + 1.5), 3.0)
-    shape_v = runs["shape"].values.astype(str)
-    sub_v = runs["substrate"].values.astype(str)
-    inc_v = runs["incline_deg"].values
-    ratio = runs["progress_ratio"].values.astype(np.float64)
-    bad = runs["status"].values != 0
-    for r, row in enumerate(rows):
-        in_row = np.ones(runs.sizes["run"], dtype=bool)
-        for d, v in row.items():
-            in_row &= runs[d].values == v
-        for c, sub in enumerate(subs):
-            ax = axes[r, c]
-            for (i, inc), (k, shp) in itertools.product(enumerate(incl), enumerate(shapes)):
-                cell = in_row & (sub_v == sub) & (shape_v == shp) & (inc_v == inc)
-                xc = i + (k - (ns - 1) / 2) * width
-                colour = f"C{k % 10}"
-                y = ratio[cell & ~bad]
-                y = y[np.isfinite(y)]
-                if y.size:
-                    bp = ax.boxplot([y], positions=[xc], widths=0.75 * width, showfliers=False, patch_artist=True, manage_ticks=False)
-                    for box in bp["boxes"]:
-                        box.set(facecolor=colour, alpha=0.25, edgecolor=colour)
-                    for part in ("whiskers", "caps", "medians"):
-                        for ln in bp[part]:
-                            ln.set(color=colour, lw=0.9)
-                    jit = ((np.arange(y.size) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
-                    ax.plot(xc + jit, y, ".", color=colour, ms=2.5, alpha=0.7)
-                nbad = int(np.count_nonzero(cell & bad))
-                if nbad:
-                    jit_bad = ((np.arange(nbad) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
-                    ax.plot(xc + jit_bad, np.full(nbad, 0.045), "x", color="red", ms=4, mew=1.0, transform=ax.get_xaxis_transform())
-            ax.axhline(thr, color="k", ls="--", lw=1.0)
-            if np.any(in_row & (sub_v == sub) & bad):
-                lo, hi = ax.get_ylim()  # a strip along the bottom for the crosses, clear of the data
-                ax.set_ylim(lo - 0.12 * (hi - lo), hi)
-            ax.set_xticks(np.arange(incl.size), [f"{v:g}" for v in incl])
-            ax.set_xlim(-0.6, incl.size - 0.4)
-            ax.set_xlabel("incline (deg)")
-            if c == 0:
-                ax.set_ylabel("progress ratio")
-            ax.grid(True, axis="y", alpha=0.3)
-            ax.set_title(_title(sub, row), fontsize=9)
-    handles = [Line2D([], [], color=f"C{k % 10}", marker="s", ls="", alpha=0.5, label=shp) for k, shp in enumerate(shapes)]
-    handles.append(Line2D([], [], color="k", ls="--", label=f"success threshold {thr:g}"))
-    handles.append(Line2D([], [], color="red", marker="x", ls="", label="not valid (status != 0)"))
-    fig.legend(handles=handles, loc="outside upper center", ncol=len(handles), fontsize=7, frameon=False)
     save_figure(fig, path)
     return fig
 
@@ -318,9 +275,9 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     paths = []
     for name, fig in figures:
         if note:
-            # wrapped to the figure's width (about 7 pt characters per 0.055 inch)
-            width = max(40, int(fig.get_figwidth() / 0.055))
-            fig.text(0.01, 0.0, textwrap.fill(note, width), ha="left", va="top", fontsize=7, color="0.25")
+            # wrapped to the figure's width (about one 8 pt character per 0.065 inch)
+            width = max(40, int(fig.get_figwidth() / 0.065))
+            fig.text(0.01, 0.0, textwrap.fill(note, width), ha="left", va="top", fontsize=8, color="0.25")
         save_figure(fig, out / name)
         paths.append(out / name)
     return paths
@@ -340,8 +297,8 @@ def plot_critical_distribution(runs: xr.Dataset, path: str | os.PathLike[str] | 
     Returns
     -------
     Figure
-        Samples outside the incline range are counted in the legend (fails at the
-        minimum / climbs at the maximum), invalid runs too.
+        Samples outside the incline range are counted in the legend under each panel
+        (fails at the minimum / climbs at the maximum), invalid runs too.
     """
     subs = sorted({str(v) for v in runs["substrate"].values})
     shapes = sorted({str(v) for v in runs["shape"].values})
@@ -361,7 +318,8 @@ def plot_critical_distribution(runs: xr.Dataset, path: str | os.PathLike[str] | 
             label = f"{shape} (n={int(ok.sum())}; below range {n_lo}, above {n_hi}, invalid {n_bad})"
             ax.hist(crit, bins=bins, histtype="step", lw=1.8, color=f"C{j}", label=label)
         ax.set(xlabel="critical incline (deg)", ylabel="samples", title=f"substrate: {sub}", xlim=(lo, hi))
-        ax.legend(fontsize=7)
+        # below the panel: the counts make the entries long, and the data fill the panel
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), frameon=False)
         ax.grid(alpha=0.3)
     if path is not None:
         save_figure(fig, Path(path))
