@@ -1,7 +1,7 @@
 """Tests of the notebooks in notebooks/.
 
-They run from top to bottom on the shipped data (slow tier) and are committed without
-outputs (fast tier).
+They run from top to bottom on the shipped data (slow tier) and are committed executed,
+from the current sources of tools/make_notebooks.py (fast tier).
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ import pytest
 
 nbformat = pytest.importorskip("nbformat")
 
-NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
 def test_there_are_notebooks() -> None:
@@ -25,11 +26,21 @@ def test_there_are_notebooks() -> None:
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
-def test_committed_without_outputs(path: Path) -> None:
+def test_committed_executed_from_the_current_sources(path: Path) -> None:
+    """The committed outputs (browsable on the repository page) come from tools/make_notebooks.py's sources."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_notebooks", ROOT / "tools" / "make_notebooks.py")
+    assert spec is not None and spec.loader is not None
+    mk = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mk)
     nb = nbformat.read(path, as_version=4)
-    for cell in nb.cells:
-        if cell.cell_type == "code":
-            assert cell.outputs == [] and cell.execution_count is None, f"{path.name}: strip outputs (python tools/make_notebooks.py)"
+    want = mk.build(mk.NOTEBOOKS[path.name])
+    assert [c.source for c in nb.cells] == [c.source for c in want.cells], f"{path.name}: regenerate (python tools/make_notebooks.py)"
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert [c.execution_count for c in code] == list(range(1, len(code) + 1)), f"{path.name}: execute it (python tools/make_notebooks.py)"
+    assert not [o for c in code for o in c.outputs if o.output_type == "error"]
+    assert any(o.get("data", {}).get("image/png") for c in code for o in c.outputs), f"{path.name}: no figure in its outputs"
 
 
 @pytest.mark.slow

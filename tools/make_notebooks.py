@@ -1,9 +1,13 @@
-"""Write the notebooks in notebooks/ from the cell sources below (outputs stripped).
+"""Write the notebooks in notebooks/ from the cell sources below, executed.
 
-    python tools/make_notebooks.py
+    pip install ".[notebooks]"
+    python tools/make_notebooks.py            # write and execute all four (about 3 min)
+    python tools/make_notebooks.py --no-execute
 
 The notebooks are generated so that their text lives in one reviewable file; edit here,
-regenerate, commit. CI executes them (tests/test_notebooks.py).
+regenerate, commit. They are committed with their outputs, so their figures can be read on
+the repository page; tests/test_notebooks.py checks that the committed outputs come from
+the current sources (fast tier) and executes them again (slow tier).
 """
 
 from __future__ import annotations
@@ -510,10 +514,32 @@ NOTEBOOKS = {
 }
 
 
-def main() -> None:
+def execute(nb: nbformat.NotebookNode, folder: Path, timeout: int = 900) -> nbformat.NotebookNode:
+    """Run ``nb`` top to bottom in ``folder`` (nbclient); outputs without timing metadata."""
+    from nbclient import NotebookClient
+
+    NotebookClient(nb, timeout=timeout, kernel_name="python3", record_timing=False, resources={"metadata": {"path": str(folder)}}).execute()
+    return nb
+
+
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+    import time
+
+    ap = argparse.ArgumentParser(description="Write (and execute) the notebooks in notebooks/.")
+    ap.add_argument("--no-execute", action="store_true", help="write them without outputs")
+    ap.add_argument("names", nargs="*", help="only these notebooks (default: all)")
+    args = ap.parse_args(argv)
+    folder = ROOT / "notebooks"
     for name, cells in NOTEBOOKS.items():
-        nbformat.write(build(cells), ROOT / "notebooks" / name)
-        print(f"wrote notebooks/{name}")
+        if args.names and name not in args.names and Path(name).stem not in args.names:
+            continue
+        nb = build(cells)
+        t0 = time.perf_counter()
+        if not args.no_execute:
+            execute(nb, folder)
+        nbformat.write(nb, folder / name)
+        print(f"wrote notebooks/{name}" + ("" if args.no_execute else f" (executed in {time.perf_counter() - t0:.0f} s)"))
 
 
 if __name__ == "__main__":
