@@ -221,10 +221,30 @@ def _figure(runs: xr.Dataset, three_d: list[dict[str, Any]], path: Path) -> None
             ax2.scatter(coarse[~both_ok], fine[~both_ok], s=18, marker="x", color="tab:red", label="a run not valid")
         ax2.set_xscale("symlog", linthresh=1.0)
         ax2.set_yscale("symlog", linthresh=1.0)
+        ticks = _symlog_ticks(lim)
+        for axis in (ax2.xaxis, ax2.yaxis):
+            axis.set_ticks(ticks, labels=[_decade_label(t) for t in ticks])
         ax2.set(xlim=(-lim, lim), ylim=(-lim, lim), xlabel="progress ratio at dt", ylabel="progress ratio at dt / 4")
         ax2.set_title("dt check (dotted: the climb threshold 0.5)")
         ax2.legend(fontsize=8)
     fig.savefig(path, dpi=110)
+
+
+def _symlog_ticks(lim: float) -> list[float]:
+    """Ticks of a symlog axis up to ``lim``: 0, +-1 and every second decade (readable at any range)."""
+    top = round(math.log10(lim))
+    step = 2 if top > 4 else 1
+    pos = [10.0**k for k in range(0, top + 1, step)]
+    return [-v for v in reversed(pos)] + [0.0] + pos
+
+
+def _decade_label(v: float) -> str:
+    """``-10^4``, ``-1``, ``0``, ``1``, ``10^2`` in mathtext."""
+    if v == 0:
+        return "0"
+    k = round(math.log10(abs(v)))
+    sign = "-" if v < 0 else ""
+    return f"${sign}1$" if k == 0 else f"${sign}10^{{{k}}}$"
 
 
 def write_report(
