@@ -10,10 +10,12 @@ from __future__ import annotations
 import hashlib
 import io
 import socket
+import sys
 import warnings
 import zipfile
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlparse
 
 import numpy as np
 import pytest
@@ -121,6 +123,7 @@ def test_shards_carry_a_checksum_in_their_name(tmp_path: Path, monkeypatch: pyte
         assert zipfile.is_zipfile(s)
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="no flock on Windows: nothing is locked there")
 def test_a_second_run_on_the_same_output_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "tiny.nc"
     toml = _toml(tmp_path)
@@ -255,7 +258,7 @@ def test_the_local_cluster_starts_with_port_8787_taken() -> None:
             warnings.simplefilter("error")
             client = local_client(1)
             try:
-                assert "8787" not in client.dashboard_link
+                assert urlparse(client.dashboard_link).port != 8787
                 assert client.submit(sum, [1, 2]).result() == 3
             finally:
                 cluster = client.cluster
@@ -264,6 +267,7 @@ def test_the_local_cluster_starts_with_port_8787_taken() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(sys.platform == "win32", reason="no flock on Windows: nothing is locked there")
 def test_a_concurrent_cli_run_is_refused_while_the_first_finishes(tmp_path: Path) -> None:
     import time
 
@@ -299,3 +303,20 @@ def test_shards_of_an_earlier_version_without_checksum_still_count(
     run_study(tiny(), out=out, progress=False)
     assert_same_result(reference, out)
     assert [p.name for p in (out.with_name(out.name + ".damaged")).iterdir()] == [first.name]
+
+
+def test_shards_of_an_older_schema_are_redone_once_new_ones_exist(reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Legacy shards lacking a column that came later (the config hash unchanged): set aside and redone, not a dead end."""
+    out = tmp_path / "tiny.nc"
+    shards = interrupted(out, monkeypatch)
+    for i, s in enumerate(shards):
+        if i >= 4:
+            s.unlink()
+            continue
+        with np.load(s) as z:
+            cols = {k: z[k] for k in z.files if k != "heading_change_deg"}
+        s.unlink()
+        (s.parent / (s.stem.rsplit("-", 1)[0] + "-0123abcd.npz")).write_bytes(_npz(cols))
+    run_study(tiny(), out=out, progress=False)
+    assert_same_result(reference, out)
+    assert len(list((out.with_name(out.name + ".damaged")).iterdir())) == 4

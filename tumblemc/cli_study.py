@@ -82,14 +82,20 @@ def study_header(cfg: Any, path: Path, where: str) -> str:
     axes = [("shape", cfg.shapes), ("substrate", cfg.presets), ("field", cfg.field_mT), ("frequency", cfg.freq_hz)]
     if cfg.mode == "grid":
         axes.insert(2, ("incline", cfg.incline_deg))
-    dims = " x ".join(f"{len(v)} {k}{'s' if len(v) > 1 else ''}" for k, v in axes if len(v) > 1 or k in ("shape", "substrate"))
+    dims = " x ".join(f"{len(v)} {_plural(k, len(v))}" for k, v in axes if len(v) > 1 or k in ("shape", "substrate"))
     lines = [
-        f"study {cfg.name}: {n:,} runs = {n_cells} cells ({dims}) x {cfg.samples} samples"
+        f"study {cfg.name}: {n:,} runs = {n_cells} {_plural('cell', n_cells)} ({dims}) x {cfg.samples} {_plural('sample', cfg.samples)}"
         + (f", plus {n_check:,} dt-check runs at dt/{cfg.check.dt_factor} ({n + n_check:,} in the progress bar)" if n_check else ""),
         f"  on {where}; output {path}",
         f"  rough estimate {_duration(work)} of single-core time (the progress bar's ETA measures the real rate)",
     ]
     return "\n".join(lines)
+
+
+def _plural(word: str, n: int) -> str:
+    if n == 1:
+        return word
+    return word[:-1] + "ies" if word.endswith("y") else word + "s"
 
 
 def _duration(seconds: float) -> str:
@@ -150,6 +156,7 @@ def cmd_study(args: argparse.Namespace, format_table: Any, usage_error: type[Exc
 def _run(args: argparse.Namespace, format_table: Any) -> int:
     import os
 
+    from tumblemc.io import StudyLock
     from tumblemc.study.config import load_config
     from tumblemc.study.engine import default_output, local_client, run_study, study_status, warm_kernels
 
@@ -160,36 +167,37 @@ def _run(args: argparse.Namespace, format_table: Any) -> int:
     procs = f"{n_workers} worker process" + ("es" if n_workers > 1 else "")
     where = args.scheduler or ("this process (no dask)" if workers == 0 else f"a local dask cluster of {procs}")
     say = not args.no_progress
-    if say:
-        print(study_header(cfg, path, where), file=sys.stderr, flush=True)
-    if not args.scheduler:  # a remote cluster's workers compile their own
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with StudyLock(path):  # before anything is compiled or started: a second run on this output stops here
         if say:
-            print("compiling kernels (first run only; about a minute on a cold cache) ...", end="", file=sys.stderr, flush=True)
-        t0 = time.perf_counter()
-        warm_kernels()  # the local cluster's workers then load them from the cache
-        if say:
-            print(f" ready in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
-    client = None
-    try:
-        if args.scheduler:
-            from distributed import Client
-
-            client = Client(args.scheduler)
-        elif workers != 0:
-            client = local_client(workers, dashboard=args.dashboard)
-            if args.dashboard:
-                print(f"dask dashboard: {client.dashboard_link}" + _bokeh_note(), file=sys.stderr, flush=True)
+            print(study_header(cfg, path, where), file=sys.stderr, flush=True)
+        client = None
         try:
-            res = run_study(cfg, client, out=path, fresh=args.fresh, progress=say, batch_size=args.batch_size)
+            if not args.scheduler:  # a remote cluster's workers compile their own
+                if say:
+                    print("compiling kernels (first run only; about a minute on a cold cache) ...", end="", file=sys.stderr, flush=True)
+                t0 = time.perf_counter()
+                warm_kernels()  # the local cluster's workers then load them from the cache
+                if say:
+                    print(f" ready in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+            if args.scheduler:
+                from distributed import Client
+
+                client = Client(args.scheduler)
+            elif workers != 0:
+                client = local_client(workers, dashboard=args.dashboard)
+                if args.dashboard:
+                    print(f"dask dashboard: {client.dashboard_link}" + _bokeh_note(), file=sys.stderr, flush=True)
+            res = run_study(cfg, client, out=path, fresh=args.fresh, progress=say, batch_size=args.batch_size, lock=False)
         except KeyboardInterrupt:
             print("\ninterrupted: finished runs are kept; run the same command again to resume", file=sys.stderr)
             return 130
-    finally:
-        if client is not None:
-            cluster = getattr(client, "cluster", None) if not args.scheduler else None
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        finally:
+            if client is not None:
+                cluster = getattr(client, "cluster", None) if not args.scheduler else None
+                client.close()
+                if cluster is not None:
+                    cluster.close()
     print(f"wrote {res.path}")
     print(format_table(study_status(res.path)))
     table = success_table(res.maps)

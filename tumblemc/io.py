@@ -114,7 +114,7 @@ class ShardStore:
             stored = read_study_json(meta)
             if stored.get("config_hash") != self.config_hash:
                 raise StudyStateError(
-                    f"{self.dir} holds runs of a different config (hash {stored.get('config_hash', '?')[:12]}, "
+                    f"{self.dir} holds runs of a different config (hash {str(stored.get('config_hash', '?'))[:12]}, "
                     f"this config {self.config_hash[:12]}); rerun with --fresh (fresh=True) to discard them, "
                     f"or give another --out"
                 )
@@ -157,8 +157,9 @@ class ShardStore:
                 self.damaged.append((path, why))
             else:
                 shards[path] = data
-        if shards:  # every shard of a kind has the same columns: the most common set
-            common = Counter(frozenset(d) for d in shards.values()).most_common(1)[0][0]
+        if shards:  # every shard of a kind has the same columns: the most common set, among checksummed shards if any
+            current = [d for p, d in shards.items() if len(p.stem.rsplit("-", 1)[-1]) != LEGACY_TAG_CHARS] or list(shards.values())
+            common = Counter(frozenset(d) for d in current).most_common(1)[0][0]
             for path, d in list(shards.items()):
                 if frozenset(d) != common:
                     missing, extra = sorted(common - frozenset(d)), sorted(frozenset(d) - common)
@@ -264,17 +265,24 @@ class StudyLock:
         except ImportError:  # pragma: no cover - Windows
             return self
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        fh = open(self.path, "a+")  # noqa: SIM115 - held open for the lock's lifetime
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            fh.seek(0)
-            holder = fh.read().strip() or "another process"
+        while True:
+            fh = open(self.path, "a+")  # noqa: SIM115 - held open for the lock's lifetime
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                fh.seek(0)
+                holder = fh.read().strip() or "another process"
+                fh.close()
+                raise StudyLockedError(
+                    f"{self.path.with_suffix('')} is being written by {holder}; wait for it to finish (rerun then resumes or "
+                    "reports it complete) or give another --out"
+                ) from None
+            try:  # the holder before us may have removed the file between our open and our lock: lock the new one
+                if os.stat(self.path).st_ino == os.fstat(fh.fileno()).st_ino:
+                    break
+            except FileNotFoundError:
+                pass
             fh.close()
-            raise StudyLockedError(
-                f"{self.path.with_suffix('')} is being written by {holder}; wait for it to finish (rerun then resumes or "
-                "reports it complete) or give another --out"
-            ) from None
         fh.seek(0)
         fh.truncate()
         fh.write(f"`tumblemc study run` (pid {os.getpid()}, started {_now()})")
@@ -284,7 +292,7 @@ class StudyLock:
 
     def __exit__(self, *exc: object) -> None:
         if self._fh is not None:
-            self.path.unlink(missing_ok=True)  # still held: a waiting process finds the study complete
+            self.path.unlink(missing_ok=True)  # while still held (__enter__ checks it locked the file on disk)
             self._fh.close()
             self._fh = None
 
@@ -330,7 +338,7 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
         tmp.unlink(missing_ok=True)
         need = runs.nbytes + maps.nbytes
         free = shutil.disk_usage(path.parent).free
-        full = getattr(e, "errno", None) == errno.ENOSPC or free < max(2 * need, 64 * 2**20)
+        full = getattr(e, "errno", None) == errno.ENOSPC or ("HDF error" in str(e) and free < max(2 * need, 64 * 2**20))
         what = f"no space left on the disk of {path.parent} ({_size(free)} free)" if full else str(e)
         raise ResultWriteError(
             errno.ENOSPC if full else getattr(e, "errno", None) or errno.EIO,

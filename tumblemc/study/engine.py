@@ -23,7 +23,6 @@ Guarantees
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import shutil
 import sys
@@ -36,7 +35,6 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.critical import expand_to_grid
-from tumblemc.analysis.maps import check_words
 from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.io import (
     ShardStore,
@@ -56,6 +54,7 @@ from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
 from tumblemc.study.design import batch_row, check_inclines, check_subset, design, grid_of
+from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
 
 
 class StudyResult(NamedTuple):
@@ -283,11 +282,6 @@ def _execute(
         raise
 
 
-def default_output(cfg: StudyConfig) -> Path:
-    """Default result path of a study: ``results/<name>.nc``."""
-    return Path("results") / f"{cfg.name}.nc"
-
-
 def run_study(
     config: str | os.PathLike[str] | StudyConfig | dict[str, Any],
     client: Any = None,
@@ -297,6 +291,7 @@ def run_study(
     progress: bool = True,
     batch_size: int | None = None,
     max_in_flight: int | None = None,
+    lock: bool = True,
 ) -> StudyResult:
     """Run a study (or its missing runs) and write its netCDF file.
 
@@ -315,6 +310,9 @@ def run_study(
         Show a progress bar on stderr.
     batch_size, max_in_flight : int, optional
         Runs per task and tasks submitted at once (default: the config's ``[execution]``).
+    lock : bool
+        Hold :class:`tumblemc.io.StudyLock` on the output while running (False: the caller
+        holds it, as ``tumblemc study run`` does from before it compiles anything).
 
     Returns
     -------
@@ -324,6 +322,8 @@ def run_study(
     cfg = config if isinstance(config, StudyConfig) else load_config(config)
     path = Path(out) if out is not None else default_output(cfg)
     path.parent.mkdir(parents=True, exist_ok=True)
+    if not lock:  # the caller holds StudyLock(path)
+        return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
     with StudyLock(path):  # a second `study run` on the same output is refused, not joined
         return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
 
@@ -369,13 +369,23 @@ def _run_locked(
 
     try:
         _execute(tasks, client, on_result, mif)
+        for _ in range(2):  # shards set aside once the new ones are in (an older schema): their runs again
+            redo_main = np.setdiff1d(np.arange(n), _done(store, "main", progress))
+            redo_check = np.setdiff1d(check_idx, _done(store, "check", progress))
+            if not (len(redo_main) or len(redo_check)):
+                break
+            bar.update(-(len(redo_main) + len(redo_check)))
+            _execute(plan(cfg, des, "main", redo_main, bs, chash) + plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
     finally:
         bar.close()
+    main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)
+    if store.damaged or len(main.get("run", ())) < n or len(check.get("run", ())) < len(check_idx):
+        raise StudyStateError(f"{store.dir} does not hold every run after simulating the missing ones; run the same command again")
     if cfg.mode == "grid":
-        runs = assemble_runs(cfg, des, store.read("main"), check_idx, store.read("check"))
+        runs = assemble_runs(cfg, des, main, check_idx, check)
         maps = make_maps(runs, level=cfg.ci_level, method=cfg.ci)
     else:
-        runs = assemble_critical(cfg, des, store.read("main"), check_idx, store.read("check"))
+        runs = assemble_critical(cfg, des, main, check_idx, check)
         lo, hi = cfg.incline_range
         curve = np.round(np.arange(lo, hi + 0.5 * cfg.incline_tol, cfg.incline_tol), 10)
         maps = make_maps(expand_to_grid(runs, curve), level=cfg.ci_level, method=cfg.ci)
@@ -410,86 +420,4 @@ def _done(store: ShardStore, kind: str, progress: bool) -> np.ndarray:
 def _parts_hash(path: Path) -> str | None:
     """Config hash of the shard folder of ``path``, if there is one."""
     meta = parts_dir(path) / "study.json"
-    try:
-        return str(json.loads(meta.read_text())["config_hash"])
-    except (OSError, ValueError, KeyError):
-        return None
-
-
-def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> dict[str, Any]:
-    """How far a study got, from its config (and the default or given result path) or from a result file.
-
-    Keys: ``state`` ("not started", "partial", "complete"), ``done``, ``total``, ``failed``
-    and, when complete, the check summary.
-    """
-    p = Path(config_or_result)
-    if p.suffix == ".nc":
-        runs, _ = open_result(p)
-        return _complete_status(runs, p)
-    cfg = load_config(p)
-    path = Path(out) if out is not None else default_output(cfg)
-    chash = config_hash(cfg)
-    if path.exists():
-        stored = result_attrs(path).get("config_hash")
-        if stored != chash:
-            return _other_config(path, str(stored))
-        runs, _ = open_result(path)
-        return _complete_status(runs, path)
-    store = ShardStore(path, config_to_json(cfg), chash)
-    meta = store.dir / "study.json"
-    if meta.exists():
-        stored = str(read_study_json(meta).get("config_hash"))
-        if stored != chash:
-            return _other_config(store.dir, stored)
-    des = design(cfg)
-    n = des.sizes["run"]
-    nc = len(check_subset(des))
-    main = store.read("main", set_aside=False)
-    damaged = list(store.damaged)
-    check_done = len(store.read("check", set_aside=False).get("run", ()))
-    damaged += store.damaged
-    done = len(main.get("run", ()))
-    failed = int(np.count_nonzero(main["status"] != 0)) if done else 0
-    out_st: dict[str, Any] = {
-        "state": "partial" if done or store.dir.exists() else "not started",
-        "path": str(path),
-        "done": done,
-        "total": n,
-        "check_done": check_done,
-        "check_total": nc,
-        "failed": failed,
-    }
-    if damaged:
-        out_st["damaged_shards"] = f"{len(damaged)} (set aside and simulated again by the next `study run`): " + ", ".join(
-            f"{f.name} {why}" for f, why in damaged
-        )
-    return out_st
-
-
-def _other_config(where: Path, stored: str) -> dict[str, Any]:
-    return {
-        "state": "different config",
-        "path": str(where),
-        "message": f"{where} holds runs of another config (hash {stored[:12]}), not of this one; "
-        "`study run --fresh` replaces them, or give another --out",
-    }
-
-
-def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
-    st = runs["status"].values
-    out: dict[str, Any] = {
-        "state": "complete",
-        "path": str(path),
-        "done": int(runs.sizes["run"]),
-        "total": int(runs.sizes["run"]),
-        "failed": int(np.count_nonzero(st != 0)),
-    }
-    for k in ("check_agreement_rate", "check_not_compared", "check_median_abs_ratio_diff", "check_max_abs_ratio_diff", "check_dt_factor"):
-        if k in runs.attrs:
-            out[k] = runs.attrs[k]
-    if "check_run" in runs:
-        out["check_total"] = out["check_done"] = int(runs.sizes["check"])
-    words = check_words(runs, str(path))
-    if words:
-        out["dt_check"] = words
-    return out
+    return str(read_study_json(meta).get("config_hash")) if meta.exists() else None
