@@ -8,7 +8,6 @@ shape and substrate (:func:`success_table`).
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -73,10 +72,11 @@ def add_study_parser(sub: Any) -> None:
 def study_header(cfg: Any, path: Path, where: str) -> str:
     """What ``study run`` is about to do: runs, cells, check runs, where, output, a first time estimate."""
     from tumblemc.study.config import cells
+    from tumblemc.study.design import n_check_runs
 
     n_cells = len(cells(cfg))
     n = cfg.n_runs
-    n_check = min(n, max(cfg.check.min_runs, math.ceil(cfg.check.fraction * n))) if cfg.check.fraction > 0 or cfg.check.min_runs else 0
+    n_check = n_check_runs(cfg, n)
     sim_s = sum(cfg.periods / f for f in cfg.freq_hz) / len(cfg.freq_hz)
     work = (n + n_check * cfg.check.dt_factor) * sim_s * WALL_PER_SIM_S
     axes = [("shape", cfg.shapes), ("substrate", cfg.presets), ("field", cfg.field_mT), ("frequency", cfg.freq_hz)]

@@ -104,10 +104,15 @@ def _cell_uniforms(config: StudyConfig, cell: Mapping[str, Any]) -> np.ndarray:
     return np.clip(u, U_EPS, 1.0 - U_EPS)
 
 
+def n_check_runs(config: StudyConfig, n: int) -> int:
+    """How many of ``n`` runs the numerical check re-simulates: ``max(min_runs, ceil(fraction n))``, at most ``n``."""
+    return min(n, max(config.check.min_runs, math.ceil(config.check.fraction * n)))
+
+
 def _check_mask(config: StudyConfig, keys: np.ndarray) -> np.ndarray:
     """The numerical-check subset: the runs with the smallest seeded hash scores."""
     n = len(keys)
-    k = min(n, max(config.check.min_runs, math.ceil(config.check.fraction * n)))
+    k = n_check_runs(config, n)
     score = np.array([int.from_bytes(_digest(f"check#{config.seed}#{int(rk)}")[:8], "little") for rk in keys], dtype=np.uint64)
     mask = np.zeros(n, dtype=bool)
     mask[np.lexsort((keys, score))[:k]] = True
