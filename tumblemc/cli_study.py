@@ -71,6 +71,7 @@ def add_study_parser(sub: Any) -> None:
 
 def study_header(cfg: Any, path: Path, where: str) -> str:
     """What ``study run`` is about to do: runs, cells, check runs, where, output, a first time estimate."""
+    from tumblemc.analysis.confseq import first_possible_stop
     from tumblemc.study.config import cells
     from tumblemc.study.design import n_check_runs
 
@@ -83,9 +84,24 @@ def study_header(cfg: Any, path: Path, where: str) -> str:
     if cfg.mode == "grid":
         axes.insert(2, ("incline", cfg.incline_deg))
     dims = " x ".join(f"{len(v)} {_plural(k, len(v))}" for k, v in axes if len(v) > 1 or k in ("shape", "substrate"))
+    upto = "up to " if cfg.precision is not None else ""
     lines = [
-        f"study {cfg.name}: {n:,} runs = {n_cells} {_plural('cell', n_cells)} ({dims}) x {cfg.samples} {_plural('sample', cfg.samples)}"
-        + (f", plus {n_check:,} dt-check runs at dt/{cfg.check.dt_factor} ({n + n_check:,} in the progress bar)" if n_check else ""),
+        f"study {cfg.name}: {upto}{n:,} runs = {n_cells} {_plural('cell', n_cells)} ({dims}) x {upto}{cfg.samples} "
+        f"{_plural('sample', cfg.samples)}"
+        + (
+            f", plus {upto}{n_check:,} dt-check runs at dt/{cfg.check.dt_factor} ({upto}{n + n_check:,} in the progress bar)"
+            if n_check
+            else ""
+        ),
+        *(
+            [
+                f"  adaptive: each cell stops once its {cfg.ci_level:.0%} confidence sequence is within +-{cfg.precision:g}"
+                " (cells at p = 0 or 1 after about "
+                f"{first_possible_stop(cfg.precision, cfg.ci_level, cfg.samples)} runs); the progress bar's total shrinks as cells close"
+            ]
+            if cfg.precision is not None
+            else []
+        ),
         f"  on {where}; output {path}",
         f"  rough estimate {_duration(work)} of single-core time (the progress bar's ETA measures the real rate)",
     ]

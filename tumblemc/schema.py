@@ -98,7 +98,7 @@ def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) ->
     return ds
 
 
-CI_METHODS = ("wilson", "clopper-pearson")
+CI_METHODS = ("wilson", "clopper-pearson", "confidence-sequence")
 
 
 CELL_DIMS = ("shape", "incline_deg", "substrate")

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtri
 from scipy.stats import beta
 
+from tumblemc.analysis.confseq import cs_interval
 from tumblemc.model.outcome import is_valid
 from tumblemc.schema import CELL_DIMS, CI_METHODS, COORD_ATTRS, MAP_VARIABLES, MAPS_FROM_RUNS_ATTRS, SWEEP_DIMS, annotate
 
@@ -50,9 +51,12 @@ def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str =
         Number of trials, ``n >= 0``; broadcast against ``k``.
     level : float
         Confidence level in (0, 1).
-    method : {"wilson", "clopper-pearson"}
+    method : {"wilson", "clopper-pearson", "confidence-sequence"}
         ``"wilson"``: Wilson score interval without continuity correction;
-        ``"clopper-pearson"``: the exact interval (``method="exact"`` of scipy).
+        ``"clopper-pearson"``: the exact interval (``method="exact"`` of scipy);
+        ``"confidence-sequence"``: the anytime-valid beta-binomial mixture interval of
+        :func:`tumblemc.analysis.confseq.cs_interval` (the one adaptive sampling stops on;
+        wider than the others at fixed n).
 
     Returns
     -------
@@ -87,6 +91,8 @@ def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str =
         delta = z / denom * np.sqrt(4.0 * ns * p * (1.0 - p) + z * z)
         lo = center - delta
         hi = center + delta
+    elif method == "confidence-sequence":
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in cs_interval(ks, ns, level))
     else:
         a = 0.5 * (1.0 - float(level))
         # beta needs positive shape parameters: placeholders where the bound is fixed
@@ -177,7 +183,7 @@ def maps(
         Study results, variables 1-D over ``run`` (see the module docstring).
     level : float
         Confidence level of the interval of ``p_success``.
-    method : {"wilson", "clopper-pearson"}
+    method : {"wilson", "clopper-pearson", "confidence-sequence"}
         Interval method, see :func:`proportion_ci`.
     quantiles : sequence of float
         Quantile levels in [0, 1] of ``progress_ratio_quantile`` (sorted in the output).

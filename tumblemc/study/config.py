@@ -38,10 +38,16 @@ dt                   time step, s (default: the simulator's ``DEFAULT_DT``)
 torque               ``"start"`` (default) or ``"end"``
 rotation             ``"momentum"`` (default) or ``"paper"`` (the rotational row, MODEL.md)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
-samples*             runs per cell, integer >= 1
+samples*             runs per cell, integer >= 1 (with ``precision``: the most per cell)
+precision            adaptive sampling (grid mode, ``mc``): each cell stops at the first
+                     run count at which the half-width of its anytime-valid interval
+                     (``ci = "confidence-sequence"``, analysis/confseq.py) is at most
+                     this, in (0, 0.5); absent: every cell runs ``samples`` runs
 sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
 seed*                root seed, integer >= 0
-ci                   ``"wilson"`` (default) or ``"clopper-pearson"``
+ci                   ``"wilson"`` (default), ``"clopper-pearson"`` or
+                     ``"confidence-sequence"`` (the default, and the only choice, with
+                     ``precision``)
 ci_level             confidence level of the intervals (default 0.95)
 [check]              numerical-error subset re-simulated at ``dt / dt_factor``:
                      ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4); the two
@@ -139,6 +145,7 @@ from tumblemc.model.params import PRESETS, RANGES
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
+from tumblemc.study.adaptive import check_adaptive
 from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget
 from tumblemc.study.checks import (
     ConfigError,
@@ -218,6 +225,7 @@ class StudyConfig:
     freq_hz: tuple[float, ...]
     samples: int
     seed: int
+    precision: float | None = None  # adaptive sampling: target half-width (study/adaptive.py)
     description: str = ""
     incline_range: tuple[float, float] = (0.0, 60.0)
     incline_tol: float = 0.5
@@ -292,28 +300,9 @@ _MODES: dict[str, _Mode] = {
 
 
 _COMMON_KEYS = (
-    "name",
-    "description",
-    "mode",
-    "shapes",
-    "presets",
-    "field_mT",
-    "freq_hz",
-    "periods",
-    "transient_periods",
-    "dt",
-    "torque",
-    "rotation",
-    "success_ratio",
-    "samples",
-    "sampler",
-    "seed",
-    "ci",
-    "ci_level",
-    "check",
-    "execution",
-    "uncertain",
-    "field",
+    *("name", "description", "mode", "shapes", "presets", "field_mT", "freq_hz", "periods", "transient_periods", "dt"),
+    *("torque", "rotation", "success_ratio", "samples", "precision", "sampler", "seed", "ci", "ci_level"),
+    *("check", "execution", "uncertain", "field"),
 )
 
 
@@ -411,7 +400,10 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     samples = check_int("samples", req("samples", f"an integer in [1, {MAX_SAMPLES}]"), 1, MAX_SAMPLES)
     sampler = check_choice("sampler", d.get("sampler", "mc"), SAMPLERS)
     seed = check_int("seed", req("seed", "an integer >= 0"), 0, 2**63 - 1)
-    ci = check_choice("ci", d.get("ci", "wilson"), CI_METHODS)
+    precision = None if d.get("precision") is None else check_num("precision", d["precision"], 0.0, 0.5, lo_open=True, hi_open=True)
+    ci = check_choice("ci", d.get("ci", "wilson" if precision is None else "confidence-sequence"), CI_METHODS)
+    if precision is not None:
+        check_adaptive(mode, sampler, ci)
     ci_level = check_num("ci_level", d.get("ci_level", 0.95), 0.5, 1.0, hi_open=True)
 
     ct = check_table("check", d.get("check", {}))
@@ -452,6 +444,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
         freq_hz=freq_hz,
         samples=samples,
         seed=seed,
+        precision=precision,
         description=description,
         incline_range=(inc_min, inc_max),
         incline_tol=inc_tol,

@@ -109,7 +109,7 @@ def n_check_runs(config: StudyConfig, n: int) -> int:
     return min(n, max(config.check.min_runs, math.ceil(config.check.fraction * n)))
 
 
-def _check_mask(config: StudyConfig, keys: np.ndarray) -> np.ndarray:
+def check_mask(config: StudyConfig, keys: np.ndarray) -> np.ndarray:
     """The numerical-check subset: the runs with the smallest seeded hash scores."""
     n = len(keys)
     k = n_check_runs(config, n)
@@ -191,7 +191,7 @@ def design(config: StudyConfig) -> xr.Dataset:
             data[sampled_name(name)] = (run, pvals[j], {"units": r.units, "long_name": long})
     data["check_flag"] = (
         run,
-        _check_mask(config, keys),
+        check_mask(config, keys),
         {"long_name": f"re-simulated at dt / {config.check.dt_factor} (numerical-error check)"},
     )
     attrs = {

@@ -49,11 +49,12 @@ from tumblemc.io import (
 )
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_name
+from tumblemc.study.adaptive import AdaptiveResult, adaptive_attrs, restrict, run_adaptive
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
-from tumblemc.study.design import batch_row, check_inclines, check_subset, design, grid_of
+from tumblemc.study.design import batch_row, check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
 
 
@@ -226,6 +227,11 @@ class Progress:
             bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} runs [{elapsed}<{remaining}, {rate_fmt}]",
         )
 
+    def expect(self, total: int) -> None:
+        """The study now expects ``total`` runs in all (adaptive sampling closes cells early)."""
+        self.bar.total = max(int(total), self.bar.n)
+        self.bar.refresh()
+
     def update(self, n: int) -> None:
         """Count ``n`` more runs done."""
         self.bar.update(n)
@@ -350,27 +356,42 @@ def _run_locked(
 
     des = design(cfg)
     n = des.sizes["run"]
-    check_idx = check_subset(des)
+    adaptive = cfg.precision is not None
+    check_idx = np.zeros(0, np.int64) if adaptive else check_subset(des)
     bs = int(batch_size or cfg.execution.batch_size)
     if client is not None and not (max_in_flight or cfg.execution.max_in_flight):
         client.wait_for_workers(1)  # a cluster that is still starting has no workers yet
     mif = int(max_in_flight or cfg.execution.max_in_flight or (4 * n_workers(client) if client is not None else 1))
-    todo_main = np.setdiff1d(np.arange(n), _done(store, "main", progress))
-    todo_check = np.setdiff1d(check_idx, _done(store, "check", progress))
-    tasks = plan(cfg, des, "main", todo_main, bs, chash) + plan(cfg, des, "check", todo_check, bs, chash)
-    total = n + len(check_idx)
-    if len(todo_main) < n:
-        _say(progress, f"resuming {cfg.name}: {n - len(todo_main)} of {n} runs already done")
-    bar = Progress(total, total - len(todo_main) - len(todo_check), enabled=progress)
+    done_main, done_check = _done(store, "main", progress), _done(store, "check", progress)
+    todo_main = np.setdiff1d(np.arange(n), done_main)
+    todo_check = np.setdiff1d(check_idx, done_check)
+    if len(done_main):
+        _say(progress, f"resuming {cfg.name}: {len(done_main)} of {'up to ' if adaptive else ''}{n} runs already done")
+    total = n + (n_check_runs(cfg, n) if adaptive else len(check_idx))
+    bar = Progress(total, len(done_main) + len(done_check) if adaptive else total - len(todo_main) - len(todo_check), enabled=progress)
 
     def on_result(kind: str, run: np.ndarray, outcome: dict[str, np.ndarray]) -> None:
         store.write(kind, run, outcome)
         bar.update(len(run))
 
+    def simulate(kind: str, idx: np.ndarray) -> None:
+        _execute(plan(cfg, des, kind, idx, bs, chash), client, on_result, mif)
+
+    used = np.arange(n)
+    kept: AdaptiveResult | None = None
     try:
-        _execute(tasks, client, on_result, mif)
+        if adaptive:  # rounds until every cell is known to the precision; then the dt check of the runs kept
+            kept = run_adaptive(
+                cfg, n, lambda: _read(store, "main"), lambda idx: simulate("main", idx), lambda m: bar.expect(m + n_check_runs(cfg, m))
+            )
+            used = kept.used
+            check_idx = used[check_mask(cfg, des["run_key"].values[used])]
+            bar.expect(kept.simulated + len(check_idx))
+            simulate("check", np.setdiff1d(check_idx, _done(store, "check", progress)))
+        else:
+            _execute(plan(cfg, des, "main", todo_main, bs, chash) + plan(cfg, des, "check", todo_check, bs, chash), client, on_result, mif)
         for _ in range(2):  # shards set aside once the new ones are in (an older schema): their runs again
-            redo_main = np.setdiff1d(np.arange(n), _done(store, "main", progress))
+            redo_main = np.setdiff1d(used, _done(store, "main", progress))
             redo_check = np.setdiff1d(check_idx, _done(store, "check", progress))
             if not (len(redo_main) or len(redo_check)):
                 break
@@ -379,8 +400,10 @@ def _run_locked(
     finally:
         bar.close()
     main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)
-    if store.damaged or len(main.get("run", ())) < n or len(check.get("run", ())) < len(check_idx):
+    if store.damaged or np.setdiff1d(used, main.get("run", ())).size or np.setdiff1d(check_idx, check.get("run", ())).size:
         raise StudyStateError(f"{store.dir} does not hold every run after simulating the missing ones; run the same command again")
+    if kept is not None:  # the runs kept, renumbered (run_key and sample keep their identity)
+        des, main, check, check_idx = restrict(des, main, check, used, check_idx)
     if cfg.mode == "grid":
         runs = assemble_runs(cfg, des, main, check_idx, check)
         maps = make_maps(runs, level=cfg.ci_level, method=cfg.ci)
@@ -391,6 +414,8 @@ def _run_locked(
         maps = make_maps(expand_to_grid(runs, curve), level=cfg.ci_level, method=cfg.ci)
         maps.attrs["p_success_definition"] = "fraction of valid samples whose critical incline is at least incline_deg"
     attrs = provenance(cfg, cjson, chash)
+    if kept is not None:
+        runs.attrs.update(adaptive_attrs(cfg, kept))
     # the root holds these (CF 2.7: a group's attributes apply to it and its descendants);
     # each group keeps its own and config_hash (assemble_runs, analysis.maps.maps)
     write_result(path, runs, maps, attrs)
@@ -411,10 +436,15 @@ def _say(enabled: bool, msg: str) -> None:
 
 def _done(store: ShardStore, kind: str, progress: bool) -> np.ndarray:
     """Finished runs of ``kind``; damaged shards are set aside (named on stderr) and their runs redone."""
-    done = store.done(kind)
+    return _read(store, kind).get("run", np.zeros(0, np.int64))
+
+
+def _read(store: ShardStore, kind: str) -> dict[str, np.ndarray]:
+    """Every finished run of ``kind`` (damaged shards set aside and named, as :func:`_done`)."""
+    out = store.read(kind)
     for f, why in store.damaged:
         print(f"warning: set aside {f.name} ({why}) in {f.parent / 'damaged'}; its runs will be simulated again", file=sys.stderr)
-    return done
+    return out
 
 
 def _parts_hash(path: Path) -> str | None:

@@ -25,6 +25,7 @@ ADDED_KEYS: dict[str, object] = {
     "check.ratio_abs_tol": 0.05,
     "check.ratio_rel_tol": 0.1,
     "field": dataclasses.asdict(FieldConfig()),
+    "precision": None,
 }
 
 

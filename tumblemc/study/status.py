@@ -63,6 +63,9 @@ def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLik
         "check_total": nc,
         "failed": failed,
     }
+    if cfg.precision is not None:  # adaptive: the cells close early, so the totals are the most it may run
+        out_st["total"] = f"up to {n} (precision {cfg.precision:g}: cells stop once their interval is that narrow)"
+        out_st["check_total"] = f"up to {nc}"
     if damaged:
         out_st["damaged_shards"] = f"{len(damaged)} (set aside and simulated again by the next `study run`): " + ", ".join(
             f"{f.name} {why}" for f, why in damaged
@@ -88,7 +91,16 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
         "total": int(runs.sizes["run"]),
         "failed": int(np.count_nonzero(st != 0)),
     }
-    for k in ("check_agreement_rate", "check_not_compared", "check_median_abs_ratio_diff", "check_max_abs_ratio_diff", "check_dt_factor"):
+    for k in (
+        "precision",
+        "runs_simulated",
+        "cells_at_cap",
+        "check_agreement_rate",
+        "check_not_compared",
+        "check_median_abs_ratio_diff",
+        "check_max_abs_ratio_diff",
+        "check_dt_factor",
+    ):
         if k in runs.attrs:
             out[k] = runs.attrs[k]
     if "check_run" in runs:

@@ -1,0 +1,179 @@
+"""Adaptive sampling per cell (issue 15, item 4): the confidence sequence, its coverage, the engine's rounds."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.test_engine import _to_toml, assert_same_result, tiny
+from tumblemc.analysis.confseq import cs_interval, first_possible_stop, half_width, stop_count
+from tumblemc.analysis.coverage import interval_table, simulate_coverage
+from tumblemc.analysis.maps import proportion_ci
+from tumblemc.io import open_result, parts_dir
+from tumblemc.model.outcome import is_valid
+from tumblemc.study import engine
+from tumblemc.study.adaptive import schedule
+from tumblemc.study.checks import ConfigError
+from tumblemc.study.config import config_hash, load_config
+from tumblemc.study.engine import run_study, study_status
+
+
+def _slow_cs(k: int, n: int, level: float) -> tuple[float, float]:
+    """The mixture's interval by brute force: every p on a grid of 1e-5 where M_n(p) < 1/alpha."""
+    p = np.linspace(1e-9, 1 - 1e-9, 100_001)
+    log_b = math.lgamma(k + 1) + math.lgamma(n - k + 1) - math.lgamma(n + 2)
+    log_m = log_b - k * np.log(p) - (n - k) * np.log1p(-p)
+    inside = p[log_m < math.log(1 / (1 - level))]
+    return float(inside.min()), float(inside.max())
+
+
+@pytest.mark.parametrize(("k", "n"), [(0, 1), (1, 1), (3, 10), (0, 40), (17, 40), (40, 40), (100, 200), (7, 200)])
+def test_cs_interval_against_brute_force(k: int, n: int) -> None:
+    lo, hi = cs_interval(k, n, 0.95)
+    slo, shi = _slow_cs(k, n, 0.95)
+    assert lo == pytest.approx(slo if k > 0 else 0.0, abs=2e-5)
+    assert hi == pytest.approx(shi if k < n else 1.0, abs=2e-5)
+
+
+def test_cs_closed_form_all_success_and_symmetry() -> None:
+    n = np.arange(1, 300)
+    lo, hi = cs_interval(n, n, 0.9)
+    np.testing.assert_allclose(lo, (0.1 / (n + 1)) ** (1 / n), rtol=1e-12)
+    assert np.all(hi == 1.0)
+    k = np.arange(0, 51)
+    lo, hi = cs_interval(k, 50)
+    lo2, hi2 = cs_interval(50 - k, 50)
+    np.testing.assert_allclose(lo, 1 - hi2, atol=1e-13)
+    assert cs_interval(0, 0) == (0.0, 1.0)
+
+
+def test_cs_is_wider_than_wilson_and_shrinks_with_n() -> None:
+    """The price of validity at every n: wider than the fixed-n interval, never wider with more data at the same share."""
+    for n in (20, 100, 400):
+        wl, wh = proportion_ci(n // 2, n, 0.95, "wilson")
+        assert half_width(n // 2, n) > 0.5 * (wh - wl)
+    hw = half_width(np.arange(10, 1000, 10) // 2, np.arange(10, 1000, 10))
+    assert np.all(np.diff(hw) < 0)
+
+
+def test_first_possible_stop_and_schedule() -> None:
+    assert first_possible_stop(0.1) == 29  # (1 - (0.05/30)^(1/29)) / 2 = 0.099 <= 0.1 < the value at 28
+    assert half_width(29, 29) <= 0.1 < half_width(28, 28)
+    assert first_possible_stop(0.05) == 69
+    cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence"))
+    assert schedule(cfg) == [29, 44, 66, 99, 149, 200]
+
+
+def test_stop_count_is_the_first_prefix_and_skips_invalid_runs() -> None:
+    ok = np.ones(40, bool)
+    assert stop_count(ok, ok, 0.1) == 29
+    assert stop_count(ok[:28], ok[:28], 0.1) is None
+    valid = ok.copy()
+    valid[[3, 10]] = False  # two invalid runs: 31 runs hold 29 valid ones
+    assert stop_count(valid, valid, 0.1) == 31
+    mixed = np.arange(40) % 2 == 0
+    assert stop_count(ok, mixed, 0.1) is None
+
+
+@pytest.mark.parametrize("p", [0.0, 0.02, 0.1, 0.5, 0.9, 1.0])
+def test_coverage_at_the_stop_is_at_least_nominal(p: float) -> None:
+    """Small version of tools/adaptive_coverage.py (docs/adaptive.md): 4000 cells per p."""
+    table = interval_table(200, 0.95)
+    res = simulate_coverage(p, 0.1, 200, reps=4000, seed=7, table=table)
+    assert res["coverage"] >= 0.95
+    if p in (0.0, 1.0):
+        assert res["mean_runs"] == 29.0
+    if p == 0.5:
+        assert res["share_capped"] == 1.0  # 0.115 at n = 200: the cap binds
+
+
+def test_config_rules() -> None:
+    d = tiny(precision=0.1)
+    del d["ci"]
+    cfg = load_config(d)
+    assert cfg.ci == "confidence-sequence" and cfg.precision == 0.1
+    assert config_hash(load_config(tiny())) != config_hash(cfg)
+    assert '"precision"' not in engine.config_to_json(load_config(tiny()))  # older studies keep their hash
+    with pytest.raises(ConfigError, match=r"precision=0\.5 .*allowed"):
+        load_config(tiny(precision=0.5, ci="confidence-sequence"))
+    with pytest.raises(ConfigError, match="sampler='lhs' with precision"):
+        load_config(tiny(precision=0.1, sampler="lhs", ci="confidence-sequence"))
+    with pytest.raises(ConfigError, match="ci='wilson' with precision"):
+        load_config(tiny(precision=0.1, ci="wilson"))
+    with pytest.raises(ConfigError, match="mode = 'grid'"):
+        load_config(tiny(precision=0.1, mode="critical_incline", incline_deg=[0, 10, 20], ci="confidence-sequence"))
+
+
+# inclines where the smoke cuboid at 10 Hz has p = 1, about 0.75, about 0.35 and 0
+MIXED: dict[str, Any] = {"incline_deg": [0, 10, 15, 60], "samples": 16}
+ADAPT: dict[str, Any] = {**MIXED, "precision": 0.3, "ci": "confidence-sequence"}
+
+
+@pytest.fixture(scope="module")
+def fixed_and_adaptive(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    d = tmp_path_factory.mktemp("adaptive")
+    run_study(tiny(**MIXED), out=d / "fixed.nc", progress=False)
+    run_study(tiny(**ADAPT), out=d / "adaptive.nc", progress=False)
+    return d / "fixed.nc", d / "adaptive.nc"
+
+
+def test_adaptive_keeps_the_prefix_the_rule_picks_from_the_fixed_study(fixed_and_adaptive: tuple[Path, Path]) -> None:
+    fixed, _ = open_result(fixed_and_adaptive[0])
+    runs, maps = open_result(fixed_and_adaptive[1])
+    kept = []
+    for inc in MIXED["incline_deg"]:
+        f = fixed.isel(run=np.flatnonzero(fixed["incline_deg"].values == inc))
+        a = runs.isel(run=np.flatnonzero(runs["incline_deg"].values == inc))
+        valid = is_valid(f["status"].values)
+        j = stop_count(valid, valid & (f["climbed"].values == 1), 0.3) or 16
+        kept.append(j)
+        np.testing.assert_array_equal(a["sample"].values, np.arange(j))
+        for v in ("run_key", "progress_ratio", "status", "climbed", "mu", "energy_gain"):
+            np.testing.assert_array_equal(a[v].values, f[v].values[:j])
+        cell = maps.sel(shape="cuboid", substrate="aluminum", incline_deg=float(inc))
+        assert int(cell["n_runs"]) == j
+        lo, hi = cs_interval(int(cell["n_success"]), int(cell["n_valid"]))
+        assert float(cell["p_success_lower"]) == lo and float(cell["p_success_upper"]) == hi
+    assert kept[0] == kept[-1] == 6  # p = 0 and p = 1: the first possible stop at precision 0.3
+    assert max(kept[1:3]) > 6  # the mixed cells need more
+    assert runs.attrs["runs_kept"] == sum(kept) and runs.attrs["runs_simulated"] >= sum(kept)
+    assert maps["p_success_lower"].attrs["ci_method"] == "confidence-sequence"
+    assert np.all(runs["run_key"].values[runs["check_run"].values] == runs["run_key"].values[runs["check_flag"].values == 1])
+
+
+@pytest.mark.parametrize("batch_size", [1, 5])
+def test_adaptive_result_does_not_depend_on_batch_size(fixed_and_adaptive: tuple[Path, Path], tmp_path: Path, batch_size: int) -> None:
+    out = tmp_path / "a.nc"
+    run_study(tiny(**ADAPT), out=out, progress=False, batch_size=batch_size)
+    assert_same_result(fixed_and_adaptive[1], out)
+
+
+def test_interrupted_adaptive_study_resumes_to_the_same_file(
+    fixed_and_adaptive: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = tmp_path / "a.nc"
+    calls = {"n": 0, "runs": 0}
+    real = engine.execute_task
+
+    def flaky(task: engine.Task) -> Any:
+        calls["n"] += 1
+        if calls["n"] > 9:  # round 1 is 8 tasks (4 cells x 6 runs, batches of 4): stop inside round 2
+            raise KeyboardInterrupt
+        calls["runs"] += len(task.run)
+        return real(task)
+
+    monkeypatch.setattr(engine, "execute_task", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        run_study(tiny(**ADAPT), out=out, progress=False, batch_size=4)
+    monkeypatch.setattr(engine, "execute_task", real)
+    assert not out.exists() and len(list(parts_dir(out).glob("main-*.npz"))) == 9
+    toml = tmp_path / "a.toml"
+    toml.write_text(_to_toml(tiny(**ADAPT)))
+    st = study_status(toml, out)
+    assert st["state"] == "partial" and st["done"] == calls["runs"] > 24 and str(st["total"]).startswith("up to 64 ")
+    run_study(tiny(**ADAPT), out=out, progress=False, batch_size=3)
+    assert_same_result(fixed_and_adaptive[1], out)

@@ -1,0 +1,180 @@
+"""Adaptive sampling per cell: sample each cell until its success probability is known to ``precision``.
+
+With ``precision`` set, a grid study runs in rounds. Round ``r`` brings every open cell up
+to ``t_r`` runs (its samples ``0 .. t_r - 1``, the same runs a fixed-n study would draw);
+then each open cell is closed at the least ``j <= t_r`` at which the half-width of the
+anytime-valid interval (:func:`tumblemc.analysis.confseq.cs_interval`) over its valid runs
+among samples ``0 .. j - 1`` is at most ``precision`` (:func:`~tumblemc.analysis.confseq.stop_count`),
+or at ``samples`` (the cap). A cell keeps exactly its first ``j`` runs; runs simulated
+beyond ``j`` in the round that closed it are dropped. So the result depends only on the
+config and the runs' outcomes in sample order, never on round sizes, batch sizes, workers
+or an interruption: ``j`` is the first prefix that qualifies, whichever round found it.
+
+The schedule starts at the fewest runs after which any cell can stop
+(:func:`~tumblemc.analysis.confseq.first_possible_stop`: 29 at precision 0.1, 69 at 0.05)
+and grows by half each round. Because the interval is a confidence sequence, it covers
+``p`` at the stopping time with probability at least ``ci_level`` (``docs/adaptive.md``
+checks it by simulation); a Wilson interval at a data-dependent stop would not, so a
+study with ``precision`` reports the confidence sequence.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import xarray as xr
+
+from tumblemc.analysis.confseq import first_possible_stop, stop_count
+from tumblemc.model.outcome import is_valid
+from tumblemc.study.checks import ConfigError
+
+if TYPE_CHECKING:
+    from tumblemc.study.config import StudyConfig
+
+GROWTH = 1.5  # each round brings open cells to 1.5x the runs of the last one
+
+
+def check_adaptive(mode: str, sampler: str, ci: str) -> None:
+    """The config keys ``precision`` needs, checked (a :class:`ConfigError` naming the one that is not)."""
+    if mode != "grid":
+        raise ConfigError("precision", f"precision is for mode = 'grid' studies, not mode = {mode!r} (allowed: leave precision out)")
+    if sampler != "mc":
+        raise ConfigError(
+            "sampler",
+            f"sampler={sampler!r} with precision: the stopping rule needs independent runs whose draws do not depend on "
+            "how many are drawn (allowed: 'mc')",
+        )
+    if ci != "confidence-sequence":
+        raise ConfigError(
+            "ci",
+            f"ci={ci!r} with precision: a fixed-n interval does not cover at a data-dependent stop "
+            "(allowed: 'confidence-sequence', the default with precision)",
+        )
+
+
+def schedule(cfg: StudyConfig) -> list[int]:
+    """Run counts per cell at the end of each round: ``first_possible_stop``, then x1.5, up to ``samples``."""
+    assert cfg.precision is not None
+    cap = cfg.samples
+    t = min(cap, first_possible_stop(cfg.precision, cfg.ci_level, cap))
+    out = [t]
+    while t < cap:
+        t = min(cap, max(t + 1, math.ceil(GROWTH * t)))
+        out.append(t)
+    return out
+
+
+@dataclass(frozen=True)
+class AdaptiveResult:
+    """What adaptive sampling kept.
+
+    ``used``: run indices of the design kept (sorted); ``kept``: runs kept per cell (design
+    cell order); ``simulated``: main runs simulated in all (kept ones and those dropped
+    beyond a cell's stop); ``capped``: cells that reached ``samples`` without the precision.
+    """
+
+    used: np.ndarray
+    kept: np.ndarray
+    simulated: int
+    capped: int
+
+
+def run_adaptive(
+    cfg: StudyConfig,
+    n_runs: int,
+    read_main: Callable[[], dict[str, np.ndarray]],
+    simulate: Callable[[np.ndarray], None],
+    expect: Callable[[int], None] | None = None,
+) -> AdaptiveResult:
+    """Run the main runs of an adaptive study, round by round.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+        With ``precision`` set.
+    n_runs : int
+        Runs in the design (cells x ``samples``, cell by cell, sample fastest).
+    read_main : callable
+        Every finished main run: ``{"run", "status", "climbed", ...}`` sorted by run.
+    simulate : callable
+        Simulates (and stores) the given design runs.
+    expect : callable, optional
+        Told after each round how many main runs the study now expects to simulate in all.
+    """
+    assert cfg.precision is not None
+    cap = cfg.samples
+    ncell = n_runs // cap
+    kept = np.full(ncell, -1, dtype=np.int64)  # -1: still open
+    reached = np.zeros(ncell, dtype=np.int64)  # runs simulated per cell
+    for target in schedule(cfg):
+        open_cells = np.flatnonzero(kept < 0)
+        if open_cells.size == 0:
+            break
+        want = (open_cells[:, None] * cap + np.arange(target)[None, :]).ravel()
+        simulate(np.setdiff1d(want, read_main().get("run", np.zeros(0, np.int64))))
+        main = read_main()
+        status = np.full(n_runs, -1, dtype=np.int64)
+        climbed = np.zeros(n_runs, dtype=np.int64)
+        status[main["run"]] = main["status"]
+        climbed[main["run"]] = main["climbed"]
+        if np.any(status[want] < 0):
+            raise RuntimeError("internal error: a round ended with runs missing")
+        for c in open_cells:
+            idx = c * cap + np.arange(target)
+            valid = is_valid(status[idx])
+            j = stop_count(valid, valid & (climbed[idx] == 1), cfg.precision, cfg.ci_level)
+            reached[c] = target
+            if j is not None:
+                kept[c] = j
+            elif target == cap:
+                kept[c] = cap
+        if expect is not None:
+            expect(int(np.sum(np.where(kept < 0, cap, reached))))
+    used = np.concatenate([c * cap + np.arange(k) for c, k in enumerate(kept)]) if ncell else np.zeros(0, np.int64)
+    capped = int(np.count_nonzero(kept == cap)) if cap > 0 else 0
+    return AdaptiveResult(used.astype(np.int64), kept, int(reached.sum()), capped)
+
+
+def adaptive_attrs(cfg: StudyConfig, res: AdaptiveResult) -> dict[str, float | int | str]:
+    """Attributes of the ``runs`` group of an adaptive study: the rule and what it saved."""
+    return {
+        "precision": float(cfg.precision or 0.0),
+        "precision_rule": f"each cell stops at the first run count at which the half-width of its {cfg.ci_level:.0%} "
+        f"confidence sequence over its valid runs is at most {cfg.precision:g}, or at {cfg.samples} runs",
+        "runs_simulated": int(res.simulated),
+        "runs_kept": int(res.used.size),
+        "cells_at_cap": int(res.capped),
+    }
+
+
+def restrict(
+    des: xr.Dataset, main: dict[str, np.ndarray], check: dict[str, np.ndarray], used: np.ndarray, check_idx: np.ndarray
+) -> tuple[xr.Dataset, dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray]:
+    """The design and shards cut to the runs kept, renumbered ``0 .. len(used) - 1``.
+
+    ``check_idx`` (design indices, a subset of ``used``) becomes the kept runs' indices;
+    the design's ``check_flag`` marks them. Identity stays in ``run_key`` and ``sample``.
+    """
+    keep = des.isel(run=used).assign_coords(run=np.arange(used.size))
+    keep["check_flag"] = ("run", np.isin(used, check_idx), des["check_flag"].attrs)
+
+    def cut(cols: dict[str, np.ndarray], want: np.ndarray) -> dict[str, np.ndarray]:
+        pos = np.searchsorted(cols["run"], want) if want.size else np.zeros(0, np.int64)
+        if want.size and not np.array_equal(cols["run"][np.minimum(pos, cols["run"].size - 1)], want):
+            raise RuntimeError("internal error: the shards do not hold every run kept")
+        return {k: v[pos] for k, v in cols.items()}
+
+    main_u = cut(main, used)
+    main_u["run"] = np.arange(used.size, dtype=np.int64)
+    local = np.searchsorted(used, check_idx).astype(np.int64)
+    check_u = cut(check, check_idx) if check_idx.size else check
+    if check_idx.size:
+        check_u["run"] = local
+    return keep, main_u, check_u, local
+
+
+__all__ = ["GROWTH", "AdaptiveResult", "adaptive_attrs", "check_adaptive", "restrict", "run_adaptive", "schedule"]
