@@ -177,3 +177,18 @@ def test_interrupted_adaptive_study_resumes_to_the_same_file(
     assert st["state"] == "partial" and st["done"] == calls["runs"] > 24 and str(st["total"]).startswith("up to 64 ")
     run_study(tiny(**ADAPT), out=out, progress=False, batch_size=3)
     assert_same_result(fixed_and_adaptive[1], out)
+
+
+@pytest.mark.slow
+def test_coverage_campaign_script_writes_its_report(tmp_path: Path) -> None:
+    """The small version of the campaign behind docs/adaptive_coverage.md."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path / "cov.md"
+    subprocess.run([sys.executable, str(root / "tools" / "adaptive_coverage.py"), "--reps", "400", "--out", str(out)], check=True, cwd=root)
+    text = out.read_text()
+    assert "| 0.1 | 200 | 0.5 |" in text and (tmp_path / "cov.png").stat().st_size > 10_000
+    low = float(text.split("Lowest coverage of the confidence sequence: **")[1].split("**")[0])
+    assert low >= 0.95
