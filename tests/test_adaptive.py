@@ -192,3 +192,21 @@ def test_coverage_campaign_script_writes_its_report(tmp_path: Path) -> None:
     assert "| 0.1 | 200 | 0.5 |" in text and (tmp_path / "cov.png").stat().st_size > 10_000
     low = float(text.split("Lowest coverage of the confidence sequence: **")[1].split("**")[0])
     assert low >= 0.95
+
+
+def test_plots_say_how_many_runs_each_cell_kept(fixed_and_adaptive: tuple[Path, Path], tmp_path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    from tumblemc.viz.study import plot_study, plot_success_heatmap
+
+    runs, maps = open_result(fixed_and_adaptive[1])
+    fig = plot_success_heatmap(maps)
+    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+    assert any("n=6" in t for t in texts) and "runs kept (n)" in fig._suptitle.get_text()  # type: ignore[union-attr]
+    plt.close(fig)
+    fixed_maps = open_result(fixed_and_adaptive[0])[1]
+    fig = plot_success_heatmap(fixed_maps)  # every cell 16 runs: no n
+    assert not any("n=" in t.get_text() for ax in fig.axes for t in ax.texts)
+    plt.close(fig)
+    paths = plot_study(runs, maps, tmp_path)
+    assert all(p.stat().st_size > 10_000 for p in paths)

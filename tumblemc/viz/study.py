@@ -97,7 +97,8 @@ def plot_success_heatmap(
         m = maps.sel(substrate=sub, **row).transpose("shape", "incline_deg", ...)
         p = m["p_success"].values
         lo, hi = m["p_success_lower"].values, m["p_success_upper"].values
-        nv, nf = m["n_valid"].values, m["n_failed"].values
+        nv, nf, nr = m["n_valid"].values, m["n_failed"].values, m["n_runs"].values
+        varying = np.unique(maps["n_runs"].values).size > 1  # adaptive sampling: say how many runs each cell kept
         mesh = ax.pcolormesh(
             np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, np.ma.masked_invalid(p), cmap=CMAP, norm=norm, edgecolors="w", linewidth=0.5
         )
@@ -108,6 +109,7 @@ def plot_success_heatmap(
                 texts.append((i, j, "none\nvalid", "", "0.3"))
                 continue
             detail = f"{lo[j, i]:.2f}\u2013{hi[j, i]:.2f}" + (f"\n{int(nf[j, i])} invalid" if nf[j, i] > 0 else "")
+            detail += f"\nn={int(nr[j, i])}" if varying else ""
             texts.append((i, j, f"{p[j, i]:.2f}", detail, "w" if p[j, i] < 0.55 else "k"))
         cells.append((ax, texts))
         ax.set_xticks(np.arange(nx), [f"{v:g}" for v in incl])
@@ -129,7 +131,8 @@ def plot_success_heatmap(
     fig.draw_without_rendering()
     shown = {_annotate_cells(ax, texts, nx, ny, renderer) for ax, texts in cells}
     notes = {
-        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid (left out of P)",
+        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid (left out of P)"
+        + (", runs kept (n)" if np.unique(maps["n_runs"].values).size > 1 else ""),
         "p": f"cells: P(success); * some runs not valid (left out of P); {level:.0%} {method} intervals in success_curves",
     }
     words = "; ".join(notes[k] for k in ("full", "p") if k in shown)
@@ -267,6 +270,13 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
         ]
     else:
         note = _check_note(runs)
+        if "precision" in runs.attrs:
+            a = runs.attrs
+            adaptive = (
+                f"adaptive sampling: {int(a['runs_kept']):,} runs kept ({int(a['runs_simulated']):,} simulated); each cell stops "
+                f"once its interval is within +-{float(a['precision']):g}, {int(a['cells_at_cap'])} cells reached the cap"
+            )
+            note = adaptive + ("; " + note if note else "")
         figures = [
             ("success_heatmap.png", plot_success_heatmap(maps)),
             ("success_curves.png", plot_success_curves(maps)),
