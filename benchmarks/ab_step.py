@@ -23,6 +23,7 @@ import os
 import statistics
 import subprocess
 import sys
+from typing import Any
 
 SCENARIOS: dict[str, dict[str, object]] = {
     "cuboid_paper_45deg_1Hz": {"shape": "cuboid", "preset": "paper", "incline_deg": 45.0, "freq_hz": 1.0, "duration_s": 2.0},
@@ -67,28 +68,38 @@ print(json.dumps(out))
 """
 
 
-def _run(python: str, cache: str | None, inner: int) -> dict[str, float]:
+def run_worker(python: str, cache: str | None, worker: str, *args: str) -> Any:
+    """Run ``worker`` (Python source) in ``python`` outside any source tree, with its own Numba cache; its last stdout line, as JSON."""
     env = dict(os.environ)
     if cache:
         env["NUMBA_CACHE_DIR"] = os.path.abspath(cache)
     proc = subprocess.run(
-        [os.path.abspath(python), "-c", WORKER, json.dumps(SCENARIOS), str(inner)],
+        [os.path.abspath(python), "-c", worker, *args],
         env=env,
         capture_output=True,
         text=True,
         check=True,
         cwd="/",  # not a source tree: each side imports its installed package
     )
-    return dict(json.loads(proc.stdout.strip().splitlines()[-1]))
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def add_ab_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options every A/B benchmark takes: the two interpreters and their Numba caches."""
+    ap.add_argument("--a", required=True, help="python of the reference version (A), e.g. d5c7070's venv")
+    ap.add_argument("--b", default=sys.executable, help="python of the measured version (B; default: this one)")
+    ap.add_argument("--cache-a", default=None, help="NUMBA_CACHE_DIR for A")
+    ap.add_argument("--cache-b", default=None, help="NUMBA_CACHE_DIR for B")
+
+
+def _run(python: str, cache: str | None, inner: int) -> dict[str, float]:
+    return dict(run_worker(python, cache, WORKER, json.dumps(SCENARIOS), str(inner)))
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the interleaved A/B measurement and print the table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--a", required=True, help="python of the reference version (A)")
-    ap.add_argument("--b", default=sys.executable, help="python of the measured version (B; default: this one)")
-    ap.add_argument("--cache-a", default=None, help="NUMBA_CACHE_DIR for A")
-    ap.add_argument("--cache-b", default=None, help="NUMBA_CACHE_DIR for B")
+    add_ab_arguments(ap)
     ap.add_argument("--rounds", type=int, default=5, help="processes per side (default 5)")
     ap.add_argument("--inner", type=int, default=3, help="timed runs per scenario and process (default 3)")
     args = ap.parse_args(argv)

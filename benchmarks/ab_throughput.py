@@ -25,14 +25,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import statistics
-import subprocess
 import sys
 from pathlib import Path
 from typing import Any, cast
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # ab_step, run as a script or imported
+from ab_step import add_ab_arguments, run_worker  # noqa: E402
+
 SHAPES = ("cuboid", "spiked", "spiked_ends", "curved")
 SINGLE: dict[str, dict[str, Any]] = {}
 for _s in SHAPES:
@@ -100,27 +101,13 @@ def tomllib_load(path: Path) -> dict[str, Any]:
 
 
 def _run(python: str, cache: str | None, slices: dict[str, list[dict[str, Any]]], inner: int) -> dict[str, dict[str, float]]:
-    env = dict(os.environ)
-    if cache:
-        env["NUMBA_CACHE_DIR"] = os.path.abspath(cache)
-    proc = subprocess.run(
-        [os.path.abspath(python), "-c", WORKER, json.dumps(SINGLE), json.dumps(slices), str(inner)],
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-        cwd="/",  # not a source tree: each side imports its installed package
-    )
-    return dict(json.loads(proc.stdout.strip().splitlines()[-1]))
+    return dict(run_worker(python, cache, WORKER, json.dumps(SINGLE), json.dumps(slices), str(inner)))
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the interleaved A/B measurement and print the tables."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--a", required=True, help="python of the reference version (A), e.g. d5c7070's venv")
-    ap.add_argument("--b", default=sys.executable, help="python of the measured version (B; default: this one)")
-    ap.add_argument("--cache-a", default=None, help="NUMBA_CACHE_DIR for A")
-    ap.add_argument("--cache-b", default=None, help="NUMBA_CACHE_DIR for B")
+    add_ab_arguments(ap)
     ap.add_argument("--rounds", type=int, default=3, help="processes per side (default 3)")
     ap.add_argument("--inner", type=int, default=3, help="timed runs per single-run scenario and process (default 3)")
     ap.add_argument("--samples", type=int, default=4, help="runs per cell of the study slice (default 4: 128 runs)")

@@ -1,6 +1,6 @@
 """Compare an adaptive study with the fixed-n study of the same cells (issue 15, item 4): writes a markdown report.
 
-    python tools/adaptive_vs_fixed.py FIXED.nc ADAPTIVE.nc [--out docs/adaptive.md]
+    python tools/adaptive_vs_fixed.py FIXED.nc ADAPTIVE.nc [--out docs/adaptive_default.md]
         [--fixed-minutes M] [--adaptive-minutes M]
 
 Per cell: runs kept, ``p_success`` of both, whether the adaptive estimate lies in the
@@ -16,7 +16,6 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
 from tumblemc.analysis.confseq import stop_count
 from tumblemc.io import open_result
@@ -153,5 +152,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    xr.set_options(keep_attrs=True)
     main()

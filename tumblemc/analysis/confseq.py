@@ -63,8 +63,6 @@ def cs_interval(k: ArrayLike, n: ArrayLike, level: float = 0.95) -> tuple[Any, A
     thr = -np.log1p(-float(level))  # log(1 / alpha)
     with np.errstate(invalid="ignore", divide="ignore"):
         phat = np.where(n_arr > 0, k_arr / np.maximum(n_arr, 1.0), 0.5)
-    lo = np.zeros(k_arr.shape)
-    hi = np.ones(k_arr.shape)
     # lower end: in (0, phat] where log M crosses thr from above (only when k > 0)
     a, b = np.zeros(k_arr.shape), phat.copy()
     for _ in range(_BISECT):
@@ -72,14 +70,14 @@ def cs_interval(k: ArrayLike, n: ArrayLike, level: float = 0.95) -> tuple[Any, A
         inside = _log_m(mid, k_arr, n_arr) < thr
         b = np.where(inside, mid, b)
         a = np.where(inside, a, mid)
-    lo = np.where(k_arr > 0, b, lo)
+    lo = np.where(k_arr > 0, b, 0.0)
     a, b = phat.copy(), np.ones(k_arr.shape)
     for _ in range(_BISECT):
         mid = 0.5 * (a + b)
         inside = _log_m(mid, k_arr, n_arr) < thr
         a = np.where(inside, mid, a)
         b = np.where(inside, b, mid)
-    hi = np.where(k_arr < n_arr, a, hi)
+    hi = np.where(k_arr < n_arr, a, 1.0)
     empty = n_arr == 0
     lo = np.where(empty, 0.0, lo)
     hi = np.where(empty, 1.0, hi)

@@ -135,8 +135,7 @@ def run_adaptive(
         if expect is not None:
             expect(int(np.sum(np.where(kept < 0, cap, reached))))
     used = np.concatenate([c * cap + np.arange(k) for c, k in enumerate(kept)]) if ncell else np.zeros(0, np.int64)
-    capped = int(np.count_nonzero(kept == cap)) if cap > 0 else 0
-    return AdaptiveResult(used.astype(np.int64), kept, int(reached.sum()), capped)
+    return AdaptiveResult(used.astype(np.int64), kept, int(reached.sum()), int(np.count_nonzero(kept == cap)))
 
 
 def adaptive_attrs(cfg: StudyConfig, res: AdaptiveResult) -> dict[str, float | int | str]:
