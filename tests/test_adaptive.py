@@ -13,12 +13,12 @@ from tests.test_engine import _to_toml, assert_same_result, tiny
 from tumblemc.analysis.confseq import cs_interval, first_possible_stop, half_width, stop_count
 from tumblemc.analysis.coverage import interval_table, simulate_coverage
 from tumblemc.analysis.maps import proportion_ci
-from tumblemc.io import open_result, parts_dir
+from tumblemc.io import StudyStateError, open_result, parts_dir
 from tumblemc.model.outcome import is_valid
 from tumblemc.study import engine
-from tumblemc.study.adaptive import schedule
+from tumblemc.study.adaptive import run_adaptive, schedule
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import config_hash, load_config
+from tumblemc.study.config import cells, config_hash, load_config
 from tumblemc.study.engine import run_study, study_status
 
 
@@ -92,20 +92,25 @@ def test_coverage_at_the_stop_is_at_least_nominal(p: float) -> None:
 
 
 def test_config_rules() -> None:
-    d = tiny(precision=0.1)
+    d = tiny(precision=0.1, samples=29)
     del d["ci"]
     cfg = load_config(d)
     assert cfg.ci == "confidence-sequence" and cfg.precision == 0.1
     assert config_hash(load_config(tiny())) != config_hash(cfg)
     assert '"precision"' not in engine.config_to_json(load_config(tiny()))  # older studies keep their hash
     with pytest.raises(ConfigError, match=r"precision=0\.5 .*allowed"):
-        load_config(tiny(precision=0.5, ci="confidence-sequence"))
+        load_config(tiny(samples=29, precision=0.5, ci="confidence-sequence"))
     with pytest.raises(ConfigError, match="sampler='lhs' with precision"):
-        load_config(tiny(precision=0.1, sampler="lhs", ci="confidence-sequence"))
+        load_config(tiny(samples=29, precision=0.1, sampler="lhs", ci="confidence-sequence"))
     with pytest.raises(ConfigError, match="ci='wilson' with precision"):
-        load_config(tiny(precision=0.1, ci="wilson"))
+        load_config(tiny(samples=29, precision=0.1, ci="wilson"))
     with pytest.raises(ConfigError, match="mode = 'grid'"):
-        load_config(tiny(precision=0.1, mode="critical_incline", incline_deg=[0, 10, 20], ci="confidence-sequence"))
+        load_config(tiny(samples=29, precision=0.1, mode="critical_incline", incline_deg=[0, 10, 20], ci="confidence-sequence"))
+    with pytest.raises(ConfigError, match=r"samples=28 with precision=0\.1.*allowed: samples >= 29"):
+        load_config(tiny(precision=0.1, samples=28, ci="confidence-sequence"))
+    load_config(tiny(precision=0.1, samples=29, ci="confidence-sequence"))
+    with pytest.raises(ValueError, match="finite"):
+        cs_interval(float("nan"), 10)
 
 
 # inclines where the smoke cuboid at 10 Hz has p = 1, about 0.75, about 0.35 and 0
@@ -174,7 +179,7 @@ def test_interrupted_adaptive_study_resumes_to_the_same_file(
     toml = tmp_path / "a.toml"
     toml.write_text(_to_toml(tiny(**ADAPT)))
     st = study_status(toml, out)
-    assert st["state"] == "partial" and st["done"] == calls["runs"] > 24 and str(st["total"]).startswith("up to 64 ")
+    assert st["state"] == "partial" and st["done"] == calls["runs"] > 24 and st["total"] == 64 and st["total_is_cap"]
     run_study(tiny(**ADAPT), out=out, progress=False, batch_size=3)
     assert_same_result(fixed_and_adaptive[1], out)
 
@@ -210,3 +215,50 @@ def test_plots_say_how_many_runs_each_cell_kept(fixed_and_adaptive: tuple[Path, 
     plt.close(fig)
     paths = plot_study(runs, maps, tmp_path)
     assert all(p.stat().st_size > 10_000 for p in paths)
+
+
+def _fake_store(lose: int) -> tuple[Any, Any, dict[str, int]]:
+    """read_main/simulate over a dict; the first ``lose`` simulate calls lose their last run (a shard set aside)."""
+    done: dict[int, int] = {}
+    calls = {"n": 0}
+
+    def read() -> dict[str, np.ndarray]:
+        r = np.array(sorted(done), dtype=np.int64)
+        return {"run": r, "status": np.zeros(r.size, np.int64), "climbed": np.array([done[i] for i in r], dtype=np.int64)}
+
+    def sim(idx: np.ndarray) -> None:
+        calls["n"] += 1
+        for i in idx[:-1] if calls["n"] <= lose else idx:
+            done[int(i)] = 1
+
+    return read, sim, calls
+
+
+def test_a_run_lost_inside_a_round_is_simulated_again_or_stops_with_one_line() -> None:
+    cfg = load_config(tiny(samples=40, precision=0.1, ci="confidence-sequence"))
+    n = 40 * len(cells(cfg))
+    read, sim, calls = _fake_store(lose=1)
+    res = run_adaptive(cfg, n, read, sim)
+    assert calls["n"] == 2 and np.all(res.kept == 29)  # every cell all one verdict: the first possible stop
+    read, sim, _ = _fake_store(lose=10**6)
+    with pytest.raises(StudyStateError, match="runs still missing"):
+        run_adaptive(cfg, n, read, sim)
+
+
+def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
+    """tools/adaptive_vs_fixed.py on a field sweep: one row per (incline, field) cell, each the fixed study's prefix."""
+    import importlib.util
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("adaptive_vs_fixed", root / "tools" / "adaptive_vs_fixed.py")
+    assert spec is not None and spec.loader is not None
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    sweep = {"incline_deg": [0, 15], "field_mT": [10.0, 20.0], "samples": 8}
+    run_study(tiny(**sweep), out=tmp_path / "f.nc", progress=False)
+    run_study(tiny(**sweep, precision=0.3, ci="confidence-sequence"), out=tmp_path / "a.nc", progress=False)
+    rows, totals = tool.compare(tmp_path / "f.nc", tmp_path / "a.nc")
+    assert sorted((r["incline_deg"], r["field_mT"]) for r in rows) == [(0, 10), (0, 20), (15, 10), (15, 20)]
+    assert totals["prefix"] == 4 and sum(int(r["kept"]) for r in rows) == totals["kept"]
+    text = tool.report(rows, totals, "x.png", (None, None))
+    assert "| shape | substrate | incline | field (mT) | runs kept |" in text and "| 15 | 20 | " in text

@@ -30,42 +30,41 @@ def compare(fixed: Path, adaptive: Path) -> tuple[list[dict[str, object]], dict[
     ar, am = open_result(adaptive)
     prec, level, cap = float(ar.attrs["precision"]), float(am["p_success_lower"].attrs["confidence_level"]), 0
     rows = []
-    fkey = np.char.add(np.char.add(fr["shape"].values.astype(str), "|"), fr["substrate"].values.astype(str))
-    akey = np.char.add(np.char.add(ar["shape"].values.astype(str), "|"), ar["substrate"].values.astype(str))
-    for sh in am["shape"].values:
-        for sub in am["substrate"].values:
-            for inc in am["incline_deg"].values:
-                fsel = np.flatnonzero((fkey == f"{sh}|{sub}") & (fr["incline_deg"].values == inc))
-                asel = np.flatnonzero((akey == f"{sh}|{sub}") & (ar["incline_deg"].values == inc))
-                fsel = fsel[np.argsort(fr["sample"].values[fsel])]
-                asel = asel[np.argsort(ar["sample"].values[asel])]
-                cap = max(cap, fsel.size)
-                valid = is_valid(fr["status"].values[fsel])
-                j = stop_count(valid, valid & (fr["climbed"].values[fsel] == 1), prec, level) or fsel.size
-                prefix = asel.size == j and all(
-                    np.array_equal(ar[c].values[asel], fr[c].values[fsel[:j]], equal_nan=ar[c].dtype.kind == "f") for c in OUTCOME_COLUMNS
-                )
-                fc = fm.sel(shape=sh, substrate=sub, incline_deg=inc)
-                ac = am.sel(shape=sh, substrate=sub, incline_deg=inc)
-                pf, pa = float(fc["p_success"]), float(ac["p_success"])
-                lo, hi = float(fc["p_success_lower"]), float(fc["p_success_upper"])
-                rows.append(
-                    {
-                        "shape": str(sh),
-                        "substrate": str(sub),
-                        "incline_deg": float(inc),
-                        "kept": int(asel.size),
-                        "rule_on_fixed": int(j),
-                        "prefix": bool(prefix),
-                        "p_fixed": pf,
-                        "fixed_lo": lo,
-                        "fixed_hi": hi,
-                        "p_adaptive": pa,
-                        "adaptive_lo": float(ac["p_success_lower"]),
-                        "adaptive_hi": float(ac["p_success_upper"]),
-                        "inside": bool(np.isnan(pf) and np.isnan(pa)) or (lo <= pa <= hi),
-                    }
-                )
+    dims = am["p_success"].dims  # shape, substrate, incline_deg and any field or frequency sweep
+    for idx in np.ndindex(*am["p_success"].shape):
+        where = {d: am[d].values[i] for d, i in zip(dims, idx, strict=True)}
+        fsel = np.flatnonzero(np.logical_and.reduce([fr[d].values == v for d, v in where.items()]))
+        asel = np.flatnonzero(np.logical_and.reduce([ar[d].values == v for d, v in where.items()]))
+        fsel = fsel[np.argsort(fr["sample"].values[fsel])]
+        asel = asel[np.argsort(ar["sample"].values[asel])]
+        cap = max(cap, fsel.size)
+        valid = is_valid(fr["status"].values[fsel])
+        j = stop_count(valid, valid & (fr["climbed"].values[fsel] == 1), prec, level) or fsel.size
+        prefix = asel.size == j and all(
+            np.array_equal(ar[c].values[asel], fr[c].values[fsel[:j]], equal_nan=ar[c].dtype.kind == "f") for c in OUTCOME_COLUMNS
+        )
+        fc = fm.sel(where)
+        ac = am.sel(where)
+        pf, pa = float(fc["p_success"]), float(ac["p_success"])
+        lo, hi = float(fc["p_success_lower"]), float(fc["p_success_upper"])
+        rows.append(
+            {
+                "shape": str(where["shape"]),
+                "substrate": str(where["substrate"]),
+                "incline_deg": float(where["incline_deg"]),
+                **{d: float(v) for d, v in where.items() if d in ("field_mT", "freq_hz")},
+                "kept": int(asel.size),
+                "rule_on_fixed": int(j),
+                "prefix": bool(prefix),
+                "p_fixed": pf,
+                "fixed_lo": lo,
+                "fixed_hi": hi,
+                "p_adaptive": pa,
+                "adaptive_lo": float(ac["p_success_lower"]),
+                "adaptive_hi": float(ac["p_success_upper"]),
+                "inside": bool(np.isnan(pf) and np.isnan(pa)) or (lo <= pa <= hi),
+            }
+        )
     totals = {
         "fixed_runs": int(fr.sizes["run"]),
         "kept": int(ar.sizes["run"]),
@@ -121,12 +120,19 @@ def report(rows: list[dict[str, object]], t: dict[str, object], fig_name: str, m
         "",
         f"![runs kept per cell]({fig_name})",
         "",
-        "| shape | substrate | incline | runs kept | P fixed (95% interval) | P adaptive (95% CS) | in fixed interval |",
-        "|---|---|---|---|---|---|---|",
+    ]
+    sweeps = [(d, u) for d, u in (("field_mT", "field (mT)"), ("freq_hz", "frequency (Hz)")) if rows and d in rows[0]]
+    lines += [
+        "| shape | substrate | incline | "
+        + "".join(f"{u} | " for _, u in sweeps)
+        + "runs kept | P fixed (95% interval) | P adaptive (95% CS) | in fixed interval |",
+        "|---|---|---|" + "---|" * len(sweeps) + "---|---|---|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {r['shape']} | {r['substrate']} | {float(r['incline_deg']):g} | {r['kept']} | "  # type: ignore[arg-type]
+            f"| {r['shape']} | {r['substrate']} | {float(r['incline_deg']):g} | "  # type: ignore[arg-type]
+            + "".join(f"{float(r[d]):g} | " for d, _ in sweeps)  # type: ignore[arg-type]
+            + f"{r['kept']} | "
             f"{float(r['p_fixed']):.3f} ({float(r['fixed_lo']):.3f}-{float(r['fixed_hi']):.3f}) | "  # type: ignore[arg-type]
             f"{float(r['p_adaptive']):.3f} ({float(r['adaptive_lo']):.3f}-{float(r['adaptive_hi']):.3f}) | "  # type: ignore[arg-type]
             f"{'yes' if r['inside'] else '**no**'} |"

@@ -95,7 +95,7 @@ def study_header(cfg: Any, path: Path, where: str) -> str:
         ),
         *(
             [
-                f"  adaptive: each cell stops once its {cfg.ci_level:.0%} confidence sequence is within +-{cfg.precision:g}"
+                f"  adaptive: each cell stops once its {cfg.ci_level:.0%} confidence sequence has a half-width of at most {cfg.precision:g}"
                 " (cells at p = 0 or 1 after about "
                 f"{first_possible_stop(cfg.precision, cfg.ci_level, cfg.samples)} runs); the progress bar's total shrinks as cells close"
             ]

@@ -58,8 +58,8 @@ def cs_interval(k: ArrayLike, n: ArrayLike, level: float = 0.95) -> tuple[Any, A
     if not 0.0 < float(level) < 1.0:
         raise ValueError(f"level must be in (0, 1), got {level!r}")
     k_arr, n_arr = np.broadcast_arrays(np.asarray(k, dtype=np.float64), np.asarray(n, dtype=np.float64))
-    if np.any(k_arr < 0) or np.any(k_arr > n_arr):
-        raise ValueError("cs_interval needs 0 <= k <= n")
+    if not (np.all(np.isfinite(k_arr)) and np.all(np.isfinite(n_arr))) or np.any(k_arr < 0) or np.any(k_arr > n_arr):
+        raise ValueError("cs_interval needs finite 0 <= k <= n")
     thr = -np.log1p(-float(level))  # log(1 / alpha)
     with np.errstate(invalid="ignore", divide="ignore"):
         phat = np.where(n_arr > 0, k_arr / np.maximum(n_arr, 1.0), 0.5)

@@ -29,6 +29,7 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.confseq import first_possible_stop, stop_count
+from tumblemc.io import StudyStateError
 from tumblemc.model.outcome import is_valid
 from tumblemc.study.checks import ConfigError
 
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
 GROWTH = 1.5  # each round brings open cells to 1.5x the runs of the last one
 
 
-def check_adaptive(mode: str, sampler: str, ci: str) -> None:
+def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: int, level: float) -> None:
     """The config keys ``precision`` needs, checked (a :class:`ConfigError` naming the one that is not)."""
     if mode != "grid":
         raise ConfigError("precision", f"precision is for mode = 'grid' studies, not mode = {mode!r} (allowed: leave precision out)")
@@ -53,6 +54,14 @@ def check_adaptive(mode: str, sampler: str, ci: str) -> None:
             "ci",
             f"ci={ci!r} with precision: a fixed-n interval does not cover at a data-dependent stop "
             "(allowed: 'confidence-sequence', the default with precision)",
+        )
+    least = first_possible_stop(precision, level, 10**6)
+    if samples < least:
+        raise ConfigError(
+            "samples",
+            f"samples={samples} with precision={precision:g}: no cell can reach that precision in fewer than {least} runs "
+            f"(the narrowest {level:.0%} interval, every run one verdict), so every cell would run to samples "
+            f"(allowed: samples >= {least}, or a larger precision)",
         )
 
 
@@ -115,14 +124,21 @@ def run_adaptive(
         if open_cells.size == 0:
             break
         want = (open_cells[:, None] * cap + np.arange(target)[None, :]).ravel()
-        simulate(np.setdiff1d(want, read_main().get("run", np.zeros(0, np.int64))))
+        for _ in range(3):  # shards set aside while the round ran (damaged, older schema): their runs again
+            missing = np.setdiff1d(want, read_main().get("run", np.zeros(0, np.int64)))
+            if missing.size == 0:
+                break
+            simulate(missing)
         main = read_main()
+        if np.setdiff1d(want, main.get("run", np.zeros(0, np.int64))).size:
+            raise StudyStateError(
+                f"adaptive round to {target} runs per cell: runs still missing after simulating them again "
+                "(their shards keep being set aside); run the same command again"
+            )
         status = np.full(n_runs, -1, dtype=np.int64)
         climbed = np.zeros(n_runs, dtype=np.int64)
         status[main["run"]] = main["status"]
         climbed[main["run"]] = main["climbed"]
-        if np.any(status[want] < 0):
-            raise RuntimeError("internal error: a round ended with runs missing")
         for c in open_cells:
             idx = c * cap + np.arange(target)
             valid = is_valid(status[idx])

@@ -402,9 +402,9 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     seed = check_int("seed", req("seed", "an integer >= 0"), 0, 2**63 - 1)
     precision = None if d.get("precision") is None else check_num("precision", d["precision"], 0.0, 0.5, lo_open=True, hi_open=True)
     ci = check_choice("ci", d.get("ci", "wilson" if precision is None else "confidence-sequence"), CI_METHODS)
-    if precision is not None:
-        check_adaptive(mode, sampler, ci)
     ci_level = check_num("ci_level", d.get("ci_level", 0.95), 0.5, 1.0, hi_open=True)
+    if precision is not None:
+        check_adaptive(mode, sampler, ci, precision, samples, ci_level)
 
     ct = check_table("check", d.get("check", {}))
     check_no_unknown(ct, ("fraction", "min_runs", "dt_factor", "ratio_abs_tol", "ratio_rel_tol"), "check")

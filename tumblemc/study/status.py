@@ -64,8 +64,12 @@ def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLik
         "failed": failed,
     }
     if cfg.precision is not None:  # adaptive: the cells close early, so the totals are the most it may run
-        out_st["total"] = f"up to {n} (precision {cfg.precision:g}: cells stop once their interval is that narrow)"
-        out_st["check_total"] = f"up to {nc}"
+        out_st["total_is_cap"] = True  # total and check_total are the most it runs
+        out_st["precision"] = cfg.precision
+        out_st["note"] = (
+            f"adaptive sampling (precision {cfg.precision:g}): total and check_total are the most it runs; "
+            "cells stop once their interval's half-width is at most the precision"
+        )
     if damaged:
         out_st["damaged_shards"] = f"{len(damaged)} (set aside and simulated again by the next `study run`): " + ", ".join(
             f"{f.name} {why}" for f, why in damaged

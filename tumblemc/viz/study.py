@@ -274,7 +274,7 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
             a = runs.attrs
             adaptive = (
                 f"adaptive sampling: {int(a['runs_kept']):,} runs kept ({int(a['runs_simulated']):,} simulated); each cell stops "
-                f"once its interval is within +-{float(a['precision']):g}, {int(a['cells_at_cap'])} cells reached the cap"
+                f"once its interval's half-width is at most {float(a['precision']):g}, {int(a['cells_at_cap'])} cells reached the cap"
             )
             note = adaptive + ("; " + note if note else "")
         figures = [
