@@ -262,3 +262,23 @@ def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
     assert totals["prefix"] == 4 and sum(int(r["kept"]) for r in rows) == totals["kept"]
     text = tool.report(rows, totals, "x.png", (None, None))
     assert "| shape | substrate | incline | field (mT) | runs kept |" in text and "| 15 | 20 | " in text
+
+
+def test_acceptance_what_if_against_hand_counts() -> None:
+    """tools/adaptive_acceptance.py: a cell with one failure in 200 stops at 29 runs and misses it with P = 171/200."""
+    import importlib.util
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("adaptive_acceptance", root / "tools" / "adaptive_acceptance.py")
+    assert spec is not None and spec.loader is not None
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    k, n = np.array([199, 200, 0]), np.array([200, 200, 200])
+    res = tool.what_if(k, n, 0.1, 0, reps=2000, seed=3)
+    # all-success and all-failure cells stop at 29 and lie inside; the 199/200 cell is outside
+    # exactly when its first 29 runs miss the failure (then P = 1 > Wilson's upper end 0.9991)
+    assert res["mean_outside"] == pytest.approx(171 / 200, abs=0.03)
+    assert 3 * 29 < res["runs_kept"] < 2 * 29 + 200  # the 199/200 cell runs on when the failure comes early
+    assert tool.what_if(k, n, 0.1, 200, reps=50)["mean_outside"] == 0.0
+    kt, nt = tool.cells_from_table(root / "docs" / "adaptive_default.md")
+    assert kt.size == 104 and np.all(nt == 200) and np.all((kt >= 0) & (kt <= 200))

@@ -622,3 +622,46 @@ def test_workspace_fields_by_name() -> None:
     for name, (shape, dtype) in want.items():
         arr = getattr(ws, name)
         assert arr.shape == shape and arr.dtype == dtype, name
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_recentre_moves_the_origin_along_the_plane_only(seed: int) -> None:
+    """``_recentre`` shifts x and every a1, a2 by the in-plane part of x, beyond RECENTRE_AT only.
+
+    The residual is invariant under that translation: F at the shifted state and unknowns
+    equals F at the original ones to the rounding of the original positions.
+    """
+    from tumblemc.kernels.stepper import RECENTRE_AT, _recentre
+
+    z, sc, prm, ctype, cdata, pstart = make_problem("two_pieces", seed, False, 0.3 + 0.3 * seed, 1e-2, 0.3)
+    rng = np.random.default_rng(seed)
+    state = np.zeros(13)
+    state[0:3] = sc[L.S_X : L.S_X + 3]
+    z_near, state_near = z.copy(), state.copy()
+    assert not _recentre(state, (z,), np.zeros(3), prm, pstart)
+    assert np.array_equal(state, state_near) and np.array_equal(z, z_near)  # near the origin: untouched
+    s = (rng.uniform(2, 5) * RECENTRE_AT) * (prm[L.P_T : L.P_T + 3] * rng.normal() + prm[L.P_O : L.P_O + 3] * rng.normal())
+    state[0:3] += s
+    for blk in block_index(pstart):
+        for key in ("a1", "a2"):
+            z[blk[key] : blk[key] + 3] += s
+    far_z, far_x = z.copy(), state[0:3].copy()
+    xoff = np.zeros(3)
+    assert _recentre(state, (z,), xoff, prm, pstart)
+    assert np.allclose(state[0:3] + xoff, far_x, rtol=0, atol=1e-12 * RECENTRE_AT)
+    assert abs(state[0:3] @ prm[L.P_T : L.P_T + 3]) < 1e-12 * RECENTRE_AT  # the in-plane part is gone ...
+    assert abs(state[0:3] @ prm[L.P_O : L.P_O + 3]) < 1e-12 * RECENTRE_AT
+    height = far_x @ prm[L.P_N : L.P_N + 3]
+    assert state[0:3] @ prm[L.P_N : L.P_N + 3] == pytest.approx(height, abs=1e-12 * RECENTRE_AT)  # ... not the height
+    moved = np.zeros(z.size, bool)
+    for blk in block_index(pstart):
+        for key in ("a1", "a2"):
+            moved[blk[key] : blk[key] + 3] = True
+            assert np.allclose(z[blk[key] : blk[key] + 3] + xoff, far_z[blk[key] : blk[key] + 3], rtol=0, atol=1e-12 * RECENTRE_AT)
+    assert np.array_equal(z[~moved], far_z[~moved])  # velocities and multipliers untouched
+    sc_far, sc_near = sc.copy(), sc.copy()
+    sc_far[L.S_X : L.S_X + 3] = far_x
+    sc_near[L.S_X : L.S_X + 3] = state[0:3]
+    F_far, _, _ = kernel(far_z, sc_far, prm, ctype, cdata, pstart)
+    F_near, _, _ = kernel(z, sc_near, prm, ctype, cdata, pstart)
+    assert np.allclose(F_near, F_far, rtol=1e-9, atol=1e-9)

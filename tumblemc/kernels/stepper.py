@@ -151,6 +151,7 @@ EARLY_FLIGHT_TURN = 0.05  # ... when the body turns by at most this angle (rad) 
 FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
 SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
+RECENTRE_AT = 100.0  # in-plane distance (scaled length, 1 cm) from the origin beyond which _recentre shifts it
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
 
@@ -728,6 +729,38 @@ def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
 
 
 @jit
+def _recentre(state, zs, xoff, prm, pstart):  # type: ignore[no-untyped-def]
+    """Move the origin along the plane to the centre of mass once it is ``RECENTRE_AT`` away.
+
+    The system is invariant under translations along the plane (uniform gravity and field,
+    the plane through the origin), but its rows subtract absolute positions: the lever
+    ``r = a1 - x+`` of a robot 20 m down an incline (2e5 length units) carries an absolute
+    rounding error of about 4e-11, which the friction and torque rows multiply by impulses
+    and spin rates of hundreds, a residual floor above ``tol`` (loose steps, thousands of
+    Newton iterations, energy in the ledger). Shifting ``x`` and the positions ``a1, a2``
+    of every unknown vector in ``zs`` by the in-plane part ``s`` of ``x`` keeps every
+    position O(1); ``xoff`` accumulates the shifts, which the record adds back. Runs that
+    stay within ``RECENTRE_AT`` of the origin are never touched (the same arithmetic as
+    before). Returns True if it shifted.
+    """
+    xt = prm[P_T] * state[0] + prm[P_T + 1] * state[1] + prm[P_T + 2] * state[2]
+    xo = prm[P_O] * state[0] + prm[P_O + 1] * state[1] + prm[P_O + 2] * state[2]
+    if abs(xt) <= RECENTRE_AT and abs(xo) <= RECENTRE_AT:
+        return False
+    for i in range(3):
+        si = xt * prm[P_T + i] + xo * prm[P_O + i]
+        state[i] -= si
+        xoff[i] += si
+        for zz in zs:
+            off = 6
+            for kp in range(pstart.shape[0] - 1):
+                zz[off + B_A1 + i] -= si
+                zz[off + B_A2 + i] -= si
+                off += B_FIXED + pstart[kp + 1] - pstart[kp]
+    return True
+
+
+@jit
 def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     """Integrate ``n_steps`` steps; returns ``(status, failed_steps)``.
 
@@ -841,13 +874,15 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     acc_fail = 0
     acc_loose = 0
 
+    xoff = np.zeros(3)  # the shifts of the origin along the plane (_recentre), added back in the record
     led = np.zeros(N_LED)  # the energy ledger (ledger.py), cumulative over the run
     lw = np.zeros(N_LW)
     led[L_KE] = kinetic_energy(state, prm, lw)
     row = 0
-    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0), led)
+    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0), led, xoff)
     status = ST_OK
     for step in range(n_steps):
+        _recentre(state, (z, zprev, zprev2), xoff, prm, geo.pstart)
         remaining = h
         hc = h
         depth = 0
@@ -1118,7 +1153,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             _record(
                 rec, row, t, state, z, adh,
                 (mode, area_prev, lnsum, slip, ecp_off),
-                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose), led,
+                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose), led, xoff,
             )  # fmt: skip
             acc_loose = 0
             acc_nit = 0
@@ -1127,12 +1162,15 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             acc_sub = 0
             acc_pen = 0.0
             acc_fail = 0
+    for i in range(3):  # the final state in the caller's frame
+        state[i] += xoff[i]
     return status, failed_total
 
 
 @jit
-def _record(rec, row, t, state, z, adh, cs, acc, led):  # type: ignore[no-untyped-def]
-    """Write record row ``row``: time, state, ECP, applied adhesion ``adh``, the contact
+def _record(rec, row, t, state, z, adh, cs, acc, led, xoff):  # type: ignore[no-untyped-def]
+    """Write record row ``row``: time, state and ECP (positions plus the origin's shift
+    ``xoff``, :func:`_recentre`), applied adhesion ``adh``, the contact
     summary ``cs = (mode, area, lnsum, slip, ecp_off)`` (:func:`_contact_state`), the
     interval's counters ``acc = (nit, res, nfb, nsub, pen, nfail, nloose)`` and the
     energy ledger ``led`` (:mod:`.ledger`)."""
@@ -1140,10 +1178,10 @@ def _record(rec, row, t, state, z, adh, cs, acc, led):  # type: ignore[no-untype
     nit, res, nfb, nsub, pen, nfail, nloose = acc
     rec[row, R_T] = t
     for i in range(3):
-        rec[row, R_X + i] = state[i]
+        rec[row, R_X + i] = state[i] + xoff[i]
         rec[row, R_V + i] = state[7 + i]
         rec[row, R_W + i] = state[10 + i]
-        rec[row, R_ECP + i] = z[ecp_off + B_A1 + i] if ecp_off >= 0 else np.nan
+        rec[row, R_ECP + i] = z[ecp_off + B_A1 + i] + xoff[i] if ecp_off >= 0 else np.nan
     for i in range(4):
         rec[row, R_Q + i] = state[3 + i]
     rec[row, R_LN] = lnsum
