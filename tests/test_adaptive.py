@@ -260,6 +260,7 @@ def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
     rows, totals = tool.compare(tmp_path / "f.nc", tmp_path / "a.nc")
     assert sorted((r["incline_deg"], r["field_mT"]) for r in rows) == [(0, 10), (0, 20), (15, 10), (15, 20)]
     assert totals["prefix"] == 4 and sum(int(r["kept"]) for r in rows) == totals["kept"]
+    assert all(r["fixed_in_cs"] == (r["adaptive_lo"] <= r["p_fixed"] <= r["adaptive_hi"]) for r in rows)
     text = tool.report(rows, totals, "x.png", (None, None))
     assert "| shape | substrate | incline | field (mT) | runs kept |" in text and "| 15 | 20 | " in text
 

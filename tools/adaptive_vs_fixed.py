@@ -63,6 +63,7 @@ def compare(fixed: Path, adaptive: Path) -> tuple[list[dict[str, object]], dict[
                 "adaptive_lo": float(ac["p_success_lower"]),
                 "adaptive_hi": float(ac["p_success_upper"]),
                 "inside": bool(np.isnan(pf) and np.isnan(pa)) or (lo <= pa <= hi),
+                "fixed_in_cs": bool(np.isnan(pf) and np.isnan(pa)) or (float(ac["p_success_lower"]) <= pf <= float(ac["p_success_upper"])),
             }
         )
     totals = {
@@ -72,6 +73,7 @@ def compare(fixed: Path, adaptive: Path) -> tuple[list[dict[str, object]], dict[
         "cells": len(rows),
         "cells_at_cap": int(ar.attrs["cells_at_cap"]),
         "inside": sum(bool(r["inside"]) for r in rows),
+        "fixed_in_cs": sum(bool(r["fixed_in_cs"]) for r in rows),
         "prefix": sum(bool(r["prefix"]) for r in rows),
         "precision": prec,
         "cap": cap,
@@ -111,6 +113,8 @@ def report(rows: list[dict[str, object]], t: dict[str, object], fig_name: str, m
         f"cells that reached the cap of {t['cap']}: {t['cells_at_cap']}",
         f"- dt-check runs: {t['check_adaptive']} (drawn from the runs kept) against {t['check_fixed']} in the fixed study",
         f"- cells whose adaptive P(success) lies in the fixed study's 95% {t['fixed_ci']} interval: **{t['inside']} of {t['cells']}**",
+        f"- cells whose fixed-study P(success) lies in the adaptive study's 95% confidence sequence: "
+        f"**{t['fixed_in_cs']} of {t['cells']}**",
         f"- cells whose runs are exactly the first runs of the fixed study's cell, as many as the stopping rule picks "
         f"from the fixed study's outcomes: {t['prefix']} of {t['cells']}",
     ]
