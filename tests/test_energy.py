@@ -163,7 +163,7 @@ def test_run_status_orders_causes() -> None:
 
 
 def test_sliding_metres_down_an_incline_matches_backward_euler_in_closed_form() -> None:
-    """No field, 60 deg, mu = 0.3 < tan 60 deg: the robot slides on its face, about 3 m in 1 s.
+    """No field, 60 deg, mu = 0.3 < tan 60 deg: the robot slides on its face, 3.5 m in 1 s.
 
     Backward Euler with the constant deceleration ``a = g sin - mu (g cos + F_push / m)``
     gives ``v_N = N h a`` and a displacement ``h^2 a N (N + 1) / 2``. The run passes the
@@ -181,6 +181,8 @@ def test_sliding_metres_down_an_incline_matches_backward_euler_in_closed_form() 
     a = G * math.sin(theta) - 0.3 * (G * math.cos(theta) + push / m)
     assert float(ds["progress"][-1]) == pytest.approx(-(dt**2) * a * n * (n + 1) / 2, rel=1e-9)
     assert np.linalg.norm(ds["velocity"].values[-1]) == pytest.approx(n * dt * a, rel=1e-9)
-    assert float(ds["penetration"].max()) <= 1e-12
+    # 3e-14 m before the origin moved with the robot (positions ~3.5e4 length units from it,
+    # rounding ~1e-11 of a unit), 2e-15 m since: a run that never recentres fails this
+    assert float(ds["penetration"].max()) <= 1e-14
     assert float(ds["omega"].pipe(abs).max()) <= 1e-6  # it slides, it does not tumble (rad/s)
     assert ds.attrs["status"] == BATCH_OK and int(ds["loose"].sum()) == 0

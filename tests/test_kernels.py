@@ -665,3 +665,32 @@ def test_recentre_moves_the_origin_along_the_plane_only(seed: int) -> None:
     F_far, _, _ = kernel(far_z, sc_far, prm, ctype, cdata, pstart)
     F_near, _, _ = kernel(z, sc_near, prm, ctype, cdata, pstart)
     assert np.allclose(F_near, F_far, rtol=1e-9, atol=1e-9)
+
+
+def test_run_returns_positions_in_the_callers_frame_after_recentring() -> None:
+    """After a run that recentres, its positions are in the caller's frame.
+
+    The run slides 15 cm (1500 length units) and shifts its origin many times; the record,
+    the final state and the last solution's a1 agree.
+    """
+    from tumblemc.kernels.residual import n_unknowns as n_unk
+    from tumblemc.kernels.stepper import RECENTRE_AT, Clock, Model, Start, empty_record, make_buffers, run
+    from tumblemc.model.run import initial_contact, prepare, run_inputs
+    from tumblemc.model.shapes.library import get_shape
+
+    spec = prepare(
+        run_inputs(get_shape("cuboid"), preset="paper", field_mT=0.0, F_elect=0.0, adhesion_C=0.0, incline_deg=60.0, mu=0.3, duration_s=0.2)
+    )
+    n = n_unk(spec.geo.pstart)
+    buf = make_buffers(n)
+    rec = empty_record(spec.n_steps, spec.n_steps)
+    area0, resting = initial_contact(spec)
+    start = Start(spec.state0.copy(), 0.0, area0, resting)
+    status, failed = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, spec.n_steps, spec.n_steps), rec, buf)
+    assert status == L.ST_OK and failed == 0
+    x_end = rec[-1, L.R_X : L.R_X + 3]
+    along = max(abs(x_end @ spec.prm[L.P_T : L.P_T + 3]), abs(x_end @ spec.prm[L.P_O : L.P_O + 3]))
+    assert along > 10 * RECENTRE_AT  # far beyond the first shift
+    assert np.array_equal(start.state[:3], x_end)
+    assert np.array_equal(buf.z[6 + L.B_A1 : 6 + L.B_A1 + 3], rec[-1, L.R_ECP : L.R_ECP + 3])
+    assert rec[-1, L.R_NIT] / spec.n_steps < 2.0

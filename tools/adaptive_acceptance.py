@@ -45,7 +45,12 @@ def cells_from_table(md: Path, cap: int = 200) -> tuple[np.ndarray, np.ndarray]:
 
 
 def cells_from_result(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """``(k, n)`` per cell (successes among valid runs) from a fixed study's maps."""
+    """``(k, n)`` per cell (successes among valid runs) from a fixed study's maps.
+
+    Only the valid runs enter (as in the stopping rule); where the invalid runs of a cell
+    sit in its order is left out, so a cell with invalid runs keeps a few runs fewer here
+    than the rule would keep.
+    """
     from tumblemc.io import open_result
 
     _, maps = open_result(path)
@@ -64,6 +69,8 @@ def what_if(k: np.ndarray, n: np.ndarray, precision: float, floor: int, reps: in
     steps = np.arange(1, cap + 1)
     for c in range(k.size):
         nc = int(n[c])
+        if nc == 0:  # no valid run: nothing to order, no estimate to compare
+            continue
         order = rng.random((reps, nc)).argsort(axis=1) < k[c]  # k[c] successes at random places
         cum = np.cumsum(order, axis=1)
         ok = (half[steps[:nc], cum] <= precision) & (steps[:nc] >= min(floor, nc))

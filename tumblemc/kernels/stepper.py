@@ -151,7 +151,7 @@ EARLY_FLIGHT_TURN = 0.05  # ... when the body turns by at most this angle (rad) 
 FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
 SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
-RECENTRE_AT = 100.0  # in-plane distance (scaled length, 1 cm) from the origin beyond which _recentre shifts it
+RECENTRE_AT = 100.0  # distance (scaled length, 1 cm) from the origin along t or o beyond which _recentre shifts it
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
 
 
@@ -730,7 +730,8 @@ def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
 
 @jit
 def _recentre(state, zs, xoff, prm, pstart):  # type: ignore[no-untyped-def]
-    """Move the origin along the plane to the centre of mass once it is ``RECENTRE_AT`` away.
+    """Move the origin along the plane to the centre of mass once it is ``RECENTRE_AT`` away
+    along either in-plane axis (``t`` or ``o``).
 
     The system is invariant under translations along the plane (uniform gravity and field,
     the plane through the origin), but its rows subtract absolute positions: the lever
@@ -758,6 +759,18 @@ def _recentre(state, zs, xoff, prm, pstart):  # type: ignore[no-untyped-def]
                 zz[off + B_A2 + i] -= si
                 off += B_FIXED + pstart[kp + 1] - pstart[kp]
     return True
+
+
+@jit
+def _recentre_undo(state, z, xoff, pstart):  # type: ignore[no-untyped-def]
+    """Add the shifts :func:`_recentre` made back to ``x`` and to ``a1, a2`` of ``z``."""
+    for i in range(3):
+        state[i] += xoff[i]
+        off = 6
+        for kp in range(pstart.shape[0] - 1):
+            z[off + B_A1 + i] += xoff[i]
+            z[off + B_A2 + i] += xoff[i]
+            off += B_FIXED + pstart[kp + 1] - pstart[kp]
 
 
 @jit
@@ -1091,8 +1104,12 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     # count the step as failed
                     step_failed = True
                     res = res_best
-                    for i in range(n):
-                        z[i] = zbest[i]
+                    if res_best < math.inf:
+                        for i in range(n):
+                            z[i] = zbest[i]
+                    else:  # no attempt gave a residual (every one NaN or skipped): zbest is an older step's
+                        for i in range(n):
+                            z[i] = zsave[i]
                     if maxfail > 0 and failed_total + 1 >= maxfail:
                         # the caller asked to give up (a study discards such runs anyway):
                         # the rest of this step would run at the smallest sub-step
@@ -1162,8 +1179,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             acc_sub = 0
             acc_pen = 0.0
             acc_fail = 0
-    for i in range(3):  # the final state in the caller's frame
-        state[i] += xoff[i]
+    # the final state and the last solution's positions in the caller's frame
+    _recentre_undo(state, z, xoff, geo.pstart)
     return status, failed_total
 
 

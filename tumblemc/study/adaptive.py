@@ -124,12 +124,13 @@ def run_adaptive(
         if open_cells.size == 0:
             break
         want = (open_cells[:, None] * cap + np.arange(target)[None, :]).ravel()
-        for _ in range(3):  # shards set aside while the round ran (damaged, older schema): their runs again
-            missing = np.setdiff1d(want, read_main().get("run", np.zeros(0, np.int64)))
+        main = read_main()
+        for _ in range(3):  # the round's runs not yet done; again for shards set aside while it ran
+            missing = np.setdiff1d(want, main.get("run", np.zeros(0, np.int64)))
             if missing.size == 0:
                 break
             simulate(missing)
-        main = read_main()
+            main = read_main()
         if np.setdiff1d(want, main.get("run", np.zeros(0, np.int64))).size:
             raise StudyStateError(
                 f"adaptive round to {target} runs per cell: runs still missing after simulating them again "
