@@ -85,7 +85,10 @@ O_ARMIJO = 3
 O_MINSTEP = 4
 O_MAXFAIL = 5  # stop the run after this many failed steps (0: never)
 O_ACCEPT = 6  # an unsolved (sub-)step is kept at once, as loose, if its best residual is at most this (0: never)
-N_OPT = 7
+# a contact (sub-)step whose normal impulse does positive work above this x (m g + the
+# field's work bound over a step) is refined in sub-steps (0: never)
+O_NWORK = 7
+N_OPT = 8
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

@@ -90,8 +90,12 @@ def kinetic_energy(state, prm, lw):  # type: ignore[no-untyped-def]
 
 
 @jit
-def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart, sc, lw, led):  # type: ignore[no-untyped-def]
-    """Add one committed (sub-)step of length ``hc`` to ``led`` (columns ``L_*``).
+def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart, sc, lw, ls):  # type: ignore[no-untyped-def]
+    """The ledger terms of one (sub-)step of length ``hc`` into ``ls`` (columns ``L_*``).
+
+    :func:`ledger_add` adds them to the run's ledger once the step is committed; the stepper
+    reads ``ls[L_WN]`` first (a landing whose normal impulse does positive work is re-solved
+    in sub-steps, ``O_NWORK``).
 
     ``state`` is the start-of-step state (``x, Q, v, w``), ``z`` the step's solution,
     ``qs`` the :func:`~.geometry.quat_step` block of the end pose (``Q+`` at ``QS_Q``),
@@ -164,19 +168,30 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
             off += B_FIXED + mk
     work = w_mag + w_grav + w_elect + w_adh + w_n + w_f
     bal = ke1 - ke0 + diss - work
-    led[L_WMAG] += w_mag
-    led[L_WGRAV] += w_grav
-    led[L_WELECT] += w_elect
-    led[L_WADH] += w_adh
-    led[L_WN] += w_n
-    led[L_WFRIC] += w_f
-    led[L_DISS] += diss
-    led[L_BAL] += bal
-    led[L_GAIN] += max(bal + max(w_n, 0.0), 0.0)
-    led[L_KE] = ke1
-    led[L_POTMAX] = max(led[L_POTMAX], led[L_WGRAV] + led[L_WELECT])
+    ls[L_WMAG] = w_mag
+    ls[L_WGRAV] = w_grav
+    ls[L_WELECT] = w_elect
+    ls[L_WADH] = w_adh
+    ls[L_WN] = w_n
+    ls[L_WFRIC] = w_f
+    ls[L_DISS] = diss
+    ls[L_BAL] = bal
+    ls[L_GAIN] = max(bal + max(w_n, 0.0), 0.0)
     if not math.isfinite(bal):
+        ls[L_GAIN] = np.inf
+    ls[L_KE] = ke1
+
+
+@jit
+def ledger_add(led, ls):  # type: ignore[no-untyped-def]
+    """Add a committed step's terms ``ls`` (:func:`ledger_step`) to the run's ledger ``led``."""
+    for k in (L_WMAG, L_WGRAV, L_WELECT, L_WADH, L_WN, L_WFRIC, L_DISS, L_BAL):
+        led[k] += ls[k]
+    led[L_GAIN] += ls[L_GAIN]
+    if ls[L_GAIN] == np.inf:
         led[L_GAIN] = np.inf
+    led[L_KE] = ls[L_KE]
+    led[L_POTMAX] = max(led[L_POTMAX], led[L_WGRAV] + led[L_WELECT])
 
 
-__all__ = ["N_LW", "kinetic_energy", "ledger_step"]
+__all__ = ["N_LW", "kinetic_energy", "ledger_add", "ledger_step"]

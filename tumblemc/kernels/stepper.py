@@ -12,7 +12,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .field import field_dir, program_field
+from .field import field_dir, field_work_bound, program_field
 from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
     B_A1,
@@ -25,6 +25,7 @@ from .layout import (
     B_SIG,
     C_PLANE,
     L_KE,
+    L_WN,
     N_LED,
     N_REC,
     N_SC,
@@ -32,6 +33,7 @@ from .layout import (
     O_MAXDEPTH,
     O_MAXFAIL,
     O_MAXIT,
+    O_NWORK,
     P_ADHC,
     P_EB,
     P_ELECT_FLIGHT,
@@ -79,7 +81,7 @@ from .layout import (
     ST_OK,
     ST_STOPPED,
 )
-from .ledger import N_LW, kinetic_energy, ledger_step
+from .ledger import N_LW, kinetic_energy, ledger_add, ledger_step
 from .newton import Workspace, make_workspace, solve
 from .residual import Problem, residual
 
@@ -804,7 +806,13 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     sub-steps down to ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
     as failed. Before any halving, an attempt whose residual is within ``opts[O_ACCEPT]``
     is kept instead (a loose step; a step counts as loose at most once, and not when it
-    also failed). Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
+    also failed). A converged contact (sub-)step, none of it committed yet, whose normal
+    impulse does more positive work than ``opts[O_NWORK]`` x (``m g`` + the field's work
+    bound over a step) is refined: solved again as halves, while the depth is below
+    ``refine_cap``; if a sub-step of the refinement does not converge, or the sub-steps do
+    more positive normal work than the step they replace, the step starts again from its
+    snapshot with a shallower cap (at the depth of the first refusal the check is off, so
+    the refused step is solved again and kept). Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
     """
     prm = model.prm
@@ -855,6 +863,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     maxdepth = int(opts[O_MAXDEPTH])
     maxfail = int(opts[O_MAXFAIL])
     accept_tol = opts[O_ACCEPT]
+    # a contact (sub-)step whose normal impulse does more positive work than this is solved
+    # again as halves (O_NWORK; a rigid contact cannot push: at a landing the robot crosses
+    # several thicknesses in a step and the end-pose contact throws it back out)
+    nwork_max = opts[O_NWORK] * (prm[P_MASS] * prm[P_G] + field_work_bound(prm, h))
     # plain and projected attempts that have not converged after FAST_MAXIT iterations
     # rarely do: move on to the next strategy (the smoothing continuation and sub-steps
     # keep max_iter)
@@ -889,6 +901,16 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
 
     xoff = np.zeros(3)  # the shifts of the origin along the plane (_recentre), added back in the record
     led = np.zeros(N_LED)  # the energy ledger (ledger.py), cumulative over the run
+    ls = np.zeros(N_LED)  # the ledger terms of the step being committed
+    # the start of a step whose landing is refined (O_NWORK)
+    snap_state = np.zeros(state.shape[0])
+    snap_z = np.zeros(n)
+    snap_touch = np.zeros(K, np.int64)
+    snap_led = np.zeros(N_LED)
+    snap_scal = (t0, area0, 0.0, 0.0, touch0, 0, 0.0)
+    snap_depth = 0  # the depth of the step's first refusal
+    wn_coarse = 0.0  # the positive normal work of the refused step
+    wn_ref = 0.0  # the same, summed over the refinement's sub-steps so far
     lw = np.zeros(N_LW)
     led[L_KE] = kinetic_energy(state, prm, lw)
     row = 0
@@ -901,13 +923,31 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
         depth = 0
         step_failed = False
         step_loose = False
+        refine_cap = maxdepth  # landings are halved (O_NWORK) while depth < refine_cap
+        refining = False  # the step is being refined: its start is in the snapshot
+        restart = False  # return to the snapshot: the refinement failed or did not help
         while remaining > 1e-12 * h:
+            if restart:
+                state[:] = snap_state
+                for i in range(n):
+                    z[i] = snap_z[i]
+                for kp in range(K):
+                    touching[kp] = snap_touch[kp]
+                led[:] = snap_led
+                t, area_prev, peel, peel_left, any_touch, ncont, acc_pen = snap_scal
+                refining = False
+                restart = False
+                remaining = h
+                hc = h * 0.5**snap_depth
+                depth = snap_depth
+                step_loose = False
             if hc > remaining:
                 hc = remaining
             _prepare(state, t, hc, prm, area_prev + peel, any_touch, scr)
             # --- free-flight prediction; an explicit pose that clearly penetrates skips it
             flight = False
             free = False  # solved without contact (for the ledger)
+            have_ls = False  # ls holds this (sub-)step's ledger terms
             st6 = ST_NAN
             res6 = 0.0
             quat_step(state, 3, state, 10, hc, qs, 0)
@@ -1092,6 +1132,13 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         z[i] = zbest[i]
                     st = ST_OK
                     step_loose = True
+                if st != ST_OK and refining:
+                    # a sub-step of a refined landing does not converge: start the step again
+                    # and refine less deep (at the depth of the first refusal the check is off:
+                    # the converged step that asked for refinement is solved again and kept)
+                    restart = True
+                    refine_cap = max(depth - 1, snap_depth)
+                    continue
                 if st != ST_OK and depth < maxdepth:
                     for i in range(n):
                         z[i] = zsave[i]
@@ -1115,6 +1162,43 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         # the rest of this step would run at the smallest sub-step
                         status = ST_STOPPED
                         break
+                if st == ST_OK and not flight and not free and nwork_max > 0.0 and depth < refine_cap and (refining or remaining == h):
+                    quat_step(state, 3, z, 3, hc, qs, 0)
+                    ledger_step(state, z, hc, qs, False, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
+                    have_ls = True
+                    if ls[L_WN] > nwork_max:
+                        if not refining:
+                            # nothing of the step is committed yet: keep its start, to which a
+                            # sub-step that fails returns
+                            refining = True
+                            snap_depth = depth
+                            wn_coarse = ls[L_WN]
+                            wn_ref = 0.0
+                            snap_state[:] = state
+                            for i in range(n):
+                                snap_z[i] = zsave[i]
+                            for kp in range(K):
+                                snap_touch[kp] = touching[kp]
+                            snap_led[:] = led
+                            snap_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen)
+                        for i in range(n):
+                            z[i] = zsave[i]
+                        hc *= 0.5
+                        depth += 1
+                        acc_sub += 1
+                        continue
+            if refining:
+                # the refinement is kept only if its sub-steps' positive normal work stays
+                # below that of the step it replaces
+                if not have_ls:
+                    quat_step(state, 3, z, 3, hc, qs, 0)
+                    ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
+                    have_ls = True
+                wn_ref += max(ls[L_WN], 0.0)
+                if wn_ref > wn_coarse:
+                    restart = True
+                    refine_cap = snap_depth
+                    continue
             if res > acc_res:
                 acc_res = res
             if flight or hc != h or st != ST_OK:
@@ -1131,7 +1215,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             if status == ST_NAN:
                 break
             quat_step(state, 3, z, 3, hc, qs, 0)
-            ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, led)
+            if not have_ls:
+                ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
+            ledger_add(led, ls)
             area_old = area_prev
             for i in range(3):
                 state[i] += hc * z[i]

@@ -312,6 +312,17 @@ class SolverOptions:
         model's residual there is at most this (at metres per second the residual can stall
         just above ``tol``, and its floor grows as the step shrinks). Allowed: 0, or from
         ``tol`` to 1. 0 restores the rule before 2026-11-21: halve, then fail.
+    landing_work : a converged contact (sub-)step whose normal impulse does positive work
+        above this fraction of the step's energy scale (the weight times the length unit +
+        the field's work bound over one step, ``m g x 1e-4 m + |m||B| (2 + 2 pi f dt)``) is
+        solved again as halves, down to ``dt / 2**max_substep_depth`` (a rigid contact
+        cannot push; at a fast landing the robot crosses several thicknesses in one step
+        and the end-pose contact throws it back out: docs/solver_gaps.md, section 4). The
+        refinement is kept only if every sub-step converges and the sub-steps together do
+        less positive normal work; otherwise the full step is solved again and kept. The
+        default 1e-5 is a thousandth of the energy tolerance (``ENERGY_GAIN_TOL`` = 1e-2 of
+        a scale at least the step's), so a run keeps a thousand landings at the threshold
+        before the ledger flags it. Allowed: 0 (never: the paper's fixed step) to 1.
     """
 
     tol: float = 1e-9
@@ -321,6 +332,7 @@ class SolverOptions:
     min_step: float = 1e-10
     max_failed_steps: int = 0
     accept_tol: float = 1e-6
+    landing_work: float = 1e-5
 
     def __post_init__(self) -> None:
         check_number("tol", self.tol, _POSITIVE)
@@ -334,6 +346,7 @@ class SolverOptions:
         check_number("min_step", self.min_step, "", 1e-16, 0.5)
         check_number("max_failed_steps", self.max_failed_steps, "", 0, 1e12)
         check_number("accept_tol", self.accept_tol, "", 0.0, 1.0)
+        check_number("landing_work", self.landing_work, "", 0.0, 1.0)
         if 0.0 < self.accept_tol < self.tol:
             raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
@@ -349,4 +362,5 @@ class SolverOptions:
         a[L.O_MINSTEP] = self.min_step
         a[L.O_MAXFAIL] = self.max_failed_steps
         a[L.O_ACCEPT] = self.accept_tol
+        a[L.O_NWORK] = self.landing_work
         return a

@@ -1,0 +1,64 @@
+"""Save the two fast landings of ``tests/test_landing_refine.py`` (``tests/data/fast_landings.npz``).
+
+Stress run 122 (``studies/stress.toml``: a cuboid on aluminum at 70 deg, 0.5 Hz, sliding
+at metres per second) integrated at the paper's fixed step (``landing_work = 0``) up to
+the step before two landings whose normal impulse does positive work:
+
+- ``refined``: t = 1.89185 s, 9.7 m/s, the sub-steps of the refinement converge;
+- ``kept``: t = 3.08595 s, 17.8 m/s, the quarter and eighth steps stall under every
+  strategy, so the refinement gives up and the full step is kept.
+
+The state, the warm start and the contact before the step are saved, so the tests run one
+step each. Run from the repository root: ``python tools/fast_landings.py``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import tumblemc
+from tumblemc.kernels import layout as L
+from tumblemc.kernels.residual import n_unknowns
+from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
+from tumblemc.model.run import initial_contact, prepare, run_inputs
+
+RUN_122 = {
+    "shape": "cuboid",
+    "preset": "aluminum",
+    "incline_deg": 70.0,
+    "field_mT": 20.95,
+    "freq_hz": 0.5,
+    "duration_s": 4.0,
+    "mu": 0.8118,
+    "adhesion_C": 75.41,
+    "offset_deg": 26.94,
+}
+STEPS = {"refined": 37837, "kept": 61719}  # steps taken before the landing
+OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "fast_landings.npz"
+
+
+def main() -> None:
+    spec = prepare(run_inputs(**RUN_122, solver=tumblemc.SolverOptions(landing_work=0.0)))  # type: ignore[arg-type]
+    out: dict[str, Any] = {}
+    for name, k in STEPS.items():
+        buf = make_buffers(n_unknowns(spec.geo.pstart))
+        area0, resting = initial_contact(spec)
+        start = Start(spec.state0.copy(), 0.0, area0, resting)
+        rec = empty_record(k, k)
+        status, failed = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, k, k), rec, buf)
+        assert status == L.ST_OK and failed == 0
+        out[f"{name}_state"] = start.state
+        out[f"{name}_z"] = buf.z.copy()
+        out[f"{name}_t"] = np.float64(rec[-1, L.R_T])
+        out[f"{name}_area"] = np.float64(rec[-1, L.R_AREA])
+        out[f"{name}_mode"] = np.float64(rec[-1, L.R_MODE])
+        print(f"{name}: t = {rec[-1, L.R_T] * spec.units.time:.5f} s, speed {np.linalg.norm(start.state[7:10]):.1f} scaled")
+    np.savez(OUT, allow_pickle=False, **out)
+    print(f"wrote {OUT}")
+
+
+if __name__ == "__main__":
+    main()
