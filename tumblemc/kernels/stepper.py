@@ -812,7 +812,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     ``refine_cap``; if a sub-step of the refinement does not converge, or the sub-steps do
     more positive normal work than the step they replace, the step starts again from its
     snapshot with a shallower cap (at the depth of the first refusal the check is off, so
-    the refused step is solved again and kept). Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
+    the refused step is solved again and kept). A sub-step kept loose counts as converged
+    there, as everywhere. The record's sub-steps, largest residual and penetration are those
+    of the sub-steps kept; its Newton iterations and fallbacks count every attempt. Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
     """
     prm = model.prm
@@ -907,7 +909,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     snap_z = np.zeros(n)
     snap_touch = np.zeros(K, np.int64)
     snap_led = np.zeros(N_LED)
-    snap_scal = (t0, area0, 0.0, 0.0, touch0, 0, 0.0)
+    snap_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub)
+    ref_end = 0.0  # what remains of the step once the refused (sub-)step is refined
     snap_depth = 0  # the depth of the step's first refusal
     wn_coarse = 0.0  # the positive normal work of the refused step
     wn_ref = 0.0  # the same, summed over the refinement's sub-steps so far
@@ -934,7 +937,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 for kp in range(K):
                     touching[kp] = snap_touch[kp]
                 led[:] = snap_led
-                t, area_prev, peel, peel_left, any_touch, ncont, acc_pen = snap_scal
+                t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub = snap_scal
                 refining = False
                 restart = False
                 remaining = h
@@ -1180,7 +1183,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                             for kp in range(K):
                                 snap_touch[kp] = touching[kp]
                             snap_led[:] = led
-                            snap_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen)
+                            snap_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub)
+                            ref_end = remaining - hc
                         for i in range(n):
                             z[i] = zsave[i]
                         hc *= 0.5
@@ -1189,13 +1193,21 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         continue
             if refining:
                 # the refinement is kept only if its sub-steps' positive normal work stays
-                # below that of the step it replaces
+                # below that of the step it replaces (and its sub-steps are finite)
+                finite = True
+                for i in range(n):
+                    if not z[i] == z[i]:
+                        finite = False
+                if not finite:
+                    restart = True
+                    refine_cap = snap_depth
+                    continue
                 if not have_ls:
                     quat_step(state, 3, z, 3, hc, qs, 0)
                     ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
                     have_ls = True
                 wn_ref += max(ls[L_WN], 0.0)
-                if wn_ref > wn_coarse:
+                if not wn_ref <= wn_coarse:  # (NaN restarts too)
                     restart = True
                     refine_cap = snap_depth
                     continue
@@ -1244,6 +1256,12 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 pen = -lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL)
                 if pen > acc_pen:
                     acc_pen = pen
+            if refining and remaining <= ref_end + 1e-12 * h:
+                # the refused (sub-)step is refined and kept: the rest of the step goes on
+                # at the refused step's length, as it would have without the refusal
+                refining = False
+                hc = h * 0.5**snap_depth
+                depth = snap_depth
         if step_failed:
             acc_fail += 1
             failed_total += 1
