@@ -814,7 +814,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     snapshot with a shallower cap (at the depth of the first refusal the check is off, so
     the refused step is solved again and kept). A sub-step kept loose counts as converged
     there, as everywhere. The record's sub-steps, largest residual and penetration are those
-    of the sub-steps kept; its Newton iterations and fallbacks count every attempt. Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
+    of the sub-steps kept; its Newton iterations and fallbacks count every attempt.
+    Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
     """
     prm = model.prm
