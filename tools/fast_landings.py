@@ -8,6 +8,14 @@ the step before two landings whose normal impulse does positive work:
 - ``kept``: t = 3.08595 s, 17.8 m/s, the quarter and eighth steps stall under every
   strategy, so the refinement gives up and the full step is kept.
 
+And one slow landing that fails at a small step (a known solver gap, docs/solver_gaps.md):
+
+- ``small_step``: issue 13's reproducer 1 (``tumblemc.claims.SNAP_HOP``, cuboid) at
+  dt = 5e-6 s, t = 0.40246 s, the edge landing after the first hop at 0.17 m/s along
+  the plane and 0.38 m/s down, spinning at 890 rad/s (the magnetic wobble of the flight):
+  every strategy and every halving down to dt / 256 fails, while the same state
+  converges at 1.5 dt.
+
 The state, the warm start and the contact before the step are saved, so the tests run one
 step each. Run from the repository root: ``python tools/fast_landings.py``.
 """
@@ -20,6 +28,7 @@ from typing import Any
 import numpy as np
 
 import tumblemc
+from tumblemc.claims import SNAP_HOP
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
@@ -37,25 +46,28 @@ RUN_122 = {
     "offset_deg": 26.94,
 }
 STEPS = {"refined": 37837, "kept": 61719}  # steps taken before the landing
+SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6}  # with tumblemc.claims.SNAP_HOP
+SMALL_STEP_STEPS = 80492
 OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "fast_landings.npz"
 
 
 def main() -> None:
     spec = prepare(run_inputs(**RUN_122, solver=tumblemc.SolverOptions(landing_work=0.0)))  # type: ignore[arg-type]
+    small = prepare(run_inputs(**SMALL_STEP, **SNAP_HOP))  # type: ignore[arg-type]
     out: dict[str, Any] = {}
-    for name, k in STEPS.items():
-        buf = make_buffers(n_unknowns(spec.geo.pstart))
-        area0, resting = initial_contact(spec)
-        start = Start(spec.state0.copy(), 0.0, area0, resting)
+    for name, k, sp in [(n, k, spec) for n, k in STEPS.items()] + [("small_step", SMALL_STEP_STEPS, small)]:
+        buf = make_buffers(n_unknowns(sp.geo.pstart))
+        area0, resting = initial_contact(sp)
+        start = Start(sp.state0.copy(), 0.0, area0, resting)
         rec = empty_record(k, k)
-        status, failed = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, k, k), rec, buf)
+        status, failed = run(Model(sp.prm, sp.geo), sp.solver.as_array(), start, Clock(sp.h, k, k), rec, buf)
         assert status == L.ST_OK and failed == 0
         out[f"{name}_state"] = start.state
         out[f"{name}_z"] = buf.z.copy()
         out[f"{name}_t"] = np.float64(rec[-1, L.R_T])
         out[f"{name}_area"] = np.float64(rec[-1, L.R_AREA])
         out[f"{name}_mode"] = np.float64(rec[-1, L.R_MODE])
-        print(f"{name}: t = {rec[-1, L.R_T] * spec.units.time:.5f} s, speed {np.linalg.norm(start.state[7:10]):.1f} scaled")
+        print(f"{name}: t = {rec[-1, L.R_T] * sp.units.time:.5f} s, speed {np.linalg.norm(start.state[7:10]):.1f} scaled")
     np.savez(OUT, allow_pickle=False, **out)
     print(f"wrote {OUT}")
 
