@@ -238,8 +238,27 @@ def test_a_run_lost_inside_a_round_is_simulated_again_or_stops_with_one_line() -
     cfg = load_config(tiny(samples=40, precision=0.1, ci="confidence-sequence"))
     n = 40 * len(cells(cfg))
     read, sim, calls = _fake_store(lose=1)
-    res = run_adaptive(cfg, n, read, sim)
+    redone: list[int] = []
+    res = run_adaptive(cfg, n, read, sim, redo=redone.append)
     assert calls["n"] == 2 and np.all(res.kept == 29)  # every cell all one verdict: the first possible stop
+    assert redone == [1]  # its shard was written (counted) and set aside: simulated again, counted off once
+    # resumed with runs 0..4 done; run 4's shard is set aside after the first round's simulate
+    done = {i: 1 for i in range(5)}
+    ncall = {"n": 0}
+
+    def read2() -> dict[str, np.ndarray]:
+        r = np.array(sorted(done), dtype=np.int64)
+        return {"run": r, "status": np.zeros(r.size, np.int64), "climbed": np.ones(r.size, np.int64)}
+
+    def sim2(idx: np.ndarray) -> None:
+        ncall["n"] += 1
+        done.update({int(i): 1 for i in idx})
+        if ncall["n"] == 1:
+            del done[4]
+
+    redone = []
+    run_adaptive(cfg, n, read2, sim2, redo=redone.append)
+    assert redone == [1]  # counted once at the start, simulated again: a progress bar takes it off
     read, sim, _ = _fake_store(lose=10**6)
     with pytest.raises(StudyStateError, match="runs still missing"):
         run_adaptive(cfg, n, read, sim)

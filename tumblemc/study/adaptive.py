@@ -98,6 +98,7 @@ def run_adaptive(
     read_main: Callable[[], dict[str, np.ndarray]],
     simulate: Callable[[np.ndarray], None],
     expect: Callable[[int], None] | None = None,
+    redo: Callable[[int], None] | None = None,
 ) -> AdaptiveResult:
     """Run the main runs of an adaptive study, round by round.
 
@@ -113,12 +114,18 @@ def run_adaptive(
         Simulates (and stores) the given design runs.
     expect : callable, optional
         Told after each round how many main runs the study now expects to simulate in all.
+    redo : callable, optional
+        Told, before runs are simulated, how many of them were simulated before (found done
+        at the start, or simulated in an earlier call) and are missing again because their
+        shards were set aside: a progress bar takes them off its count.
     """
     assert cfg.precision is not None
     cap = cfg.samples
     ncell = n_runs // cap
     kept = np.full(ncell, -1, dtype=np.int64)  # -1: still open
     reached = np.zeros(ncell, dtype=np.int64)  # runs simulated per cell
+    seen = np.zeros(n_runs, dtype=bool)  # found done or simulated so far
+    seen[read_main().get("run", np.zeros(0, np.int64))] = True
     for target in schedule(cfg):
         open_cells = np.flatnonzero(kept < 0)
         if open_cells.size == 0:
@@ -129,6 +136,10 @@ def run_adaptive(
             missing = np.setdiff1d(want, main.get("run", np.zeros(0, np.int64)))
             if missing.size == 0:
                 break
+            again = int(np.count_nonzero(seen[missing]))
+            if again and redo is not None:
+                redo(again)
+            seen[missing] = True
             simulate(missing)
             main = read_main()
         if np.setdiff1d(want, main.get("run", np.zeros(0, np.int64))).size:

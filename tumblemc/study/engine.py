@@ -382,7 +382,12 @@ def _run_locked(
     try:
         if adaptive:  # rounds until every cell is known to the precision; then the dt check of the runs kept
             kept = run_adaptive(
-                cfg, n, lambda: _read(store, "main"), lambda idx: simulate("main", idx), lambda m: bar.expect(m + n_check_runs(cfg, m))
+                cfg,
+                n,
+                lambda: _read(store, "main"),
+                lambda idx: simulate("main", idx),
+                lambda m: bar.expect(m + n_check_runs(cfg, m)),
+                lambda again: bar.update(-again),  # runs counted once whose shards were set aside
             )
             used = kept.used
             check_idx = used[check_mask(cfg, des["run_key"].values[used])]
