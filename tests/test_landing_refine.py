@@ -103,10 +103,27 @@ def test_slow_landing_converges_at_a_longer_step() -> None:
     assert status == L.ST_OK and failed == 0 and row[L.R_RES] <= tumblemc.SolverOptions().tol
 
 
-@pytest.mark.xfail(strict=True, reason="known solver gap (docs/solver_gaps.md): a slow edge landing fails at dt = 5e-6 s at every sub-step")
-def test_slow_landing_converges_at_a_small_step() -> None:
-    (status, failed), row, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
-    assert status == L.ST_OK and failed == 0, f"failed step, residual {row[L.R_RES]:.3g} after {row[L.R_SUB]:.0f} halvings"
+def test_slow_landing_at_a_small_step_is_kept_loose_not_failed() -> None:
+    """The saved slow landing at dt = 5e-6 s is kept as loose, not failed (``impulse_accept_tol``).
+
+    No strategy solves it to ``tol`` at any depth; its best attempt balances momentum to 2e-7
+    of the impact. With the rule off (0) the step fails, as before 2026-11-27.
+    """
+    (status, failed), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
+    assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 1
+    assert row[L.R_RES] > 0.1  # not converged in the absolute sense: the record says so
+    assert row[L.R_SUB] == tumblemc.SolverOptions().max_substep_depth  # it got there at the smallest sub-step
+    (status, failed), row0, end0, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=0.0))
+    assert failed == 1 and row0[L.R_LOOSE] == 0
+    assert np.array_equal(end.state, end0.state)  # the same attempt, kept either way: only the label differs
+    # the edge stops: the downward speed drops from 12 to below 1 (scaled), the ECP at the plane
+    assert end.state[9] > -1.0 and row[L.R_PEN] < 1e-3
+
+
+@pytest.mark.parametrize("bad", [-1e-9, 2e-3, float("nan")])
+def test_impulse_accept_tol_out_of_range_names_the_field(bad: float) -> None:
+    with pytest.raises(ValueError, match="impulse_accept_tol"):
+        tumblemc.SolverOptions(impulse_accept_tol=bad)
 
 
 def test_reproducer_ladder_small_version() -> None:

@@ -88,7 +88,11 @@ O_ACCEPT = 6  # an unsolved (sub-)step is kept at once, as loose, if its best re
 # a contact (sub-)step whose normal impulse does positive work above this x (m g + the
 # field's work bound over a step) is refined in sub-steps (0: never)
 O_NWORK = 7
-N_OPT = 8
+# a (sub-)step that fails at the smallest sub-step is kept as loose if its best attempt
+# balances momentum to this fraction of the step's momenta and impulses and its geometric
+# rows to IMPULSE_ACCEPT_LEN (stepper._impulse_consistent; 0: never, such steps fail)
+O_IMPULSE = 8
+N_OPT = 9
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

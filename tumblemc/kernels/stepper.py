@@ -30,6 +30,7 @@ from .layout import (
     N_REC,
     N_SC,
     O_ACCEPT,
+    O_IMPULSE,
     O_MAXDEPTH,
     O_MAXFAIL,
     O_MAXIT,
@@ -155,6 +156,7 @@ SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 RECENTRE_AT = 100.0  # distance (scaled length, 1 cm) from the origin along t or o beyond which _recentre shifts it
 FLIGHT_PRECHECK = 1e-6  # an explicit prediction this deep (scaled length) below the plane skips the flight solve
+IMPULSE_ACCEPT_LEN = 1e-3  # geometric and complementarity rows of a step kept by _impulse_consistent (scaled length)
 
 
 @jit
@@ -559,6 +561,62 @@ def _plain_residual(z, prob, ws):  # type: ignore[no-untyped-def]
     for i in range(z.shape[0]):
         r = max(r, abs(ws.Ft[i]))
     return r
+
+
+@jit
+def _impulse_consistent(z, state, hc, prob, ws, tol_rel):  # type: ignore[no-untyped-def]
+    """Whether ``z``, the best attempt of a (sub-)step that failed at every depth, solves the
+    step up to ``tol_rel`` of its momenta and impulses (``opts[O_IMPULSE]``).
+
+    Force rows times ``hc`` (an impulse) against ``m (|v| + |v+|) + hc (m g + L)``, torque
+    rows against ``I_max (|w| + |w+|) + hc L rho`` (``L`` the sum of the contact forces'
+    magnitudes, ``rho`` the largest lever ``|a1 - x|``, at least one length unit), the
+    friction rows against ``(1 + L) (1 + |v+| + rho |w+|)``, the friction-cone row against
+    ``(1 + L)^2``; the geometric and complementarity rows (lengths and multipliers) within
+    ``IMPULSE_ACCEPT_LEN``. Fills ``ws.Ft`` with the residual."""
+    _plain_residual(z, prob, ws)
+    F = ws.Ft
+    prm = prob.prm
+    pstart = prob.pstart
+    K = pstart.shape[0] - 1
+    lam = 0.0
+    rho = 1.0
+    off = 6
+    for kp in range(K):
+        mk = pstart[kp + 1] - pstart[kp]
+        lam += abs(z[off + B_L + mk + 1]) + abs(z[off + B_LT]) + abs(z[off + B_LO]) + abs(z[off + B_LR])
+        d2 = 0.0
+        for i in range(3):
+            d = z[off + B_A1 + i] - state[i]
+            d2 += d * d
+        rho = max(rho, math.sqrt(d2))
+        off += B_FIXED + mk
+    m = prm[P_MASS]
+    imax = max(prm[P_IB], prm[P_IB + 4], prm[P_IB + 8])
+    vs = _norm3(state[7:10]) + _norm3(z[0:3])
+    ws_ = _norm3(state[10:13]) + _norm3(z[3:6])
+    pscale = m * vs + hc * (m * prm[P_G] + lam)
+    lscale = imax * ws_ + hc * lam * rho
+    for i in range(3):
+        if not abs(F[i]) * hc <= tol_rel * pscale or not abs(F[3 + i]) * hc <= tol_rel * lscale:
+            return False
+    dscale = (1.0 + lam) * (1.0 + _norm3(z[0:3]) + rho * _norm3(z[3:6]))
+    off = 6
+    for kp in range(K):
+        mk = pstart[kp + 1] - pstart[kp]
+        for i in range(off, off + B_LT):  # a1 - a2 - l_s n, sum l_i N_i + n
+            if not abs(F[i]) <= IMPULSE_ACCEPT_LEN:
+                return False
+        for i in range(off + B_LT, off + B_SIG):  # maximum dissipation
+            if not abs(F[i]) <= tol_rel * dscale:
+                return False
+        if not abs(F[off + B_SIG]) <= tol_rel * (1.0 + lam) ** 2 + IMPULSE_ACCEPT_LEN:  # the cone
+            return False
+        for i in range(off + B_L, off + B_L + mk + 2):  # FB(l_i), FB(l_s), FB(lam_n)
+            if not abs(F[i]) <= IMPULSE_ACCEPT_LEN:
+                return False
+        off += B_FIXED + mk
+    return True
 
 
 @jit
@@ -1150,6 +1208,16 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     depth += 1
                     acc_sub += 1
                     continue
+                if st != ST_OK and opts[O_IMPULSE] > 0.0 and res_best < math.inf:
+                    # nothing converged at the smallest sub-step, but the best attempt balances
+                    # the step's momenta to O_IMPULSE of its impulses (a landing in a tiny
+                    # sub-step, where the forces are impulse / hc): keep it, as loose
+                    for i in range(n):
+                        z[i] = zbest[i]
+                    if _impulse_consistent(z, state, hc, prob, ws, opts[O_IMPULSE]):
+                        st = ST_OK
+                        res = res_best
+                        step_loose = True
                 if st != ST_OK:
                     # nothing converged at the smallest sub-step: keep the best attempt and
                     # count the step as failed
