@@ -118,6 +118,14 @@ def test_slow_landing_at_a_small_step_is_kept_loose_not_failed() -> None:
     assert np.array_equal(end.state, end0.state)  # the same attempt, kept either way: only the label differs
     # the edge stops: the downward speed drops from 12 to below 1 (scaled), the ECP at the plane
     assert end.state[9] > -1.0 and row[L.R_PEN] < 1e-3
+    # the scale matters: at 1e-8 of the step's momenta (the attempt balances them to 1.7e-7) it fails
+    (status, failed), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=1e-8))
+    assert failed == 1
+    # a study stops a run at its first failed step (max_failed_steps = 1): kept loose, it runs on
+    (status, failed), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1))
+    assert status == L.ST_OK and failed == 0
+    (status, failed), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1, impulse_accept_tol=0.0))
+    assert status == L.ST_STOPPED
 
 
 @pytest.mark.parametrize("bad", [-1e-9, 2e-3, float("nan")])

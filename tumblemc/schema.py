@@ -54,7 +54,8 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
     "failed": {"units": "1", "long_name": "steps whose solve did not converge at the smallest sub-step"},
     "loose": {
         "units": "1",
-        "long_name": "steps with a (sub-)step kept, without halving, at a residual between the solver's tol and accept_tol",
+        "long_name": "steps with a (sub-)step kept unsolved: without halving at a residual between the solver's tol and accept_tol, "
+        "or at the smallest sub-step balancing momentum to impulse_accept_tol",
     },
     "field": {"units": "T", "long_name": "magnetic flux density B (world frame)"},
     "work_magnetic": {"units": "J", "long_name": "work of the magnetic torque since the start (h T_m . w+ per step)"},
@@ -191,7 +192,7 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total"},
     "fallbacks": {"units": "1", "long_name": "damped or gradient Newton steps and extra solve strategies, total"},
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
-    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol"},
+    "loose_steps": {"units": "1", "long_name": "time steps kept unsolved but within accept_tol or impulse_accept_tol"},
     "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
     "energy_gain": {
         "units": "J",
@@ -294,7 +295,7 @@ CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
     "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step over the run's simulations"},
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total over the run's simulations"},
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step, total"},
-    "loose_steps": {"units": "1", "long_name": "time steps kept at a residual between the solver's tol and accept_tol, total"},
+    "loose_steps": {"units": "1", "long_name": "time steps kept unsolved but within accept_tol or impulse_accept_tol, total"},
 }
 
 

@@ -119,7 +119,7 @@ R_SUB = 22  # extra sub-steps in the interval
 R_PEN = 23  # max penetration in the interval
 R_FAIL = 24  # steps in the interval with a sub-step that did not converge at the smallest size
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
-R_LOOSE = 28  # steps in the interval with a (sub-)step kept at a residual between O_TOL and O_ACCEPT
+R_LOOSE = 28  # steps in the interval with a (sub-)step kept unsolved: residual between O_TOL and O_ACCEPT, or by O_IMPULSE
 R_LED = 29  # the energy ledger at the recorded instant (N_LED columns, L_* order)
 N_REC = 40
 

@@ -862,9 +862,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     (``FLIGHT_BEFORE``) if the body turns by at most ``EARLY_FLIGHT_TURN`` in the step,
     and after every strategy otherwise. A step whose solve fails is retried as halved
     sub-steps down to ``h / 2**opts[O_MAXDEPTH]``; below that the best iterate is kept and the step counted
-    as failed. Before any halving, an attempt whose residual is within ``opts[O_ACCEPT]``
-    is kept instead (a loose step; a step counts as loose at most once, and not when it
-    also failed). A converged contact (sub-)step, none of it committed yet, whose normal
+    as failed, or as loose if that iterate balances the step's momenta and impulses to
+    ``opts[O_IMPULSE]`` (:func:`_impulse_consistent`; the same iterate either way).
+    Before any halving, an attempt whose residual is within ``opts[O_ACCEPT]`` is kept
+    instead (a loose step; a step counts as loose at most once, and not when it also
+    failed). A converged contact (sub-)step, none of it committed yet, whose normal
     impulse does more positive work than ``opts[O_NWORK]`` x (``m g`` + the field's work
     bound over a step) is refined: solved again as halves, while the depth is below
     ``refine_cap``; if a sub-step of the refinement does not converge, or the sub-steps do
@@ -1010,6 +1012,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             flight = False
             free = False  # solved without contact (for the ledger)
             have_ls = False  # ls holds this (sub-)step's ledger terms
+            unsolved = False  # kept by O_IMPULSE: not a warm start to extrapolate from (as if failed)
             st6 = ST_NAN
             res6 = 0.0
             quat_step(state, 3, state, 10, hc, qs, 0)
@@ -1218,6 +1221,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         st = ST_OK
                         res = res_best
                         step_loose = True
+                        unsolved = True
                 if st != ST_OK:
                     # nothing converged at the smallest sub-step: keep the best attempt and
                     # count the step as failed
@@ -1282,7 +1286,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     continue
             if res > acc_res:
                 acc_res = res
-            if flight or hc != h or st != ST_OK:
+            if flight or hc != h or st != ST_OK or unsolved:
                 ncont = 0
             else:
                 for i in range(n):

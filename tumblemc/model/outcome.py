@@ -1,7 +1,8 @@
 """What a run amounts to: its summary and the one verdict.
 
 A run is *valid* when it finished with every step converged (outcome status ``ok``; a
-step kept loose, between the solver's ``tol`` and ``accept_tol``, counts as converged).
+step kept loose, between the solver's ``tol`` and ``accept_tol`` or balancing its momenta
+to ``impulse_accept_tol``, counts as converged).
 :func:`climbed` is the one verdict: a valid run whose progress ratio reaches the
 threshold. :func:`summarize`, :func:`tumblemc.model.rows.simulate_rows` (and so the
 study engine and the critical-incline bisection), the maps and the screening analyses
@@ -68,7 +69,8 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         ``progress_ratio``, ``climbed`` (:func:`climbed`: valid and
         ``progress_ratio >= threshold``; a run with failed steps never climbed),
         ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
-        between the solver's ``tol`` and ``accept_tol``), ``mean_newton_iterations``,
+        between the solver's ``tol`` and ``accept_tol``, or at the smallest sub-step by
+        ``impulse_accept_tol``), ``mean_newton_iterations``,
         ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
         ``status`` (:func:`run_status`: 0 ok; 1 failed_steps, a step kept unconverged, so
         the run is not valid and never climbed, its speed and ratio are still reported

@@ -328,8 +328,9 @@ class SolverOptions:
         angular momentum to this fraction of the step's momenta and impulses (the force rows'
         residual times the sub-step, against ``m (|v| + |v+|) + h (m g + contact forces)``
         and its angular twin), its friction rows to this fraction of their terms, and its
-        geometric and complementarity rows to 1e-3 of the length unit (0.1 um, the
-        penetration tolerance of the 3-D runs). At a landing solved in a tiny sub-step the
+        ECP, normal-cone and complementarity rows to 1e-3 in scaled units (0.1 um where the
+        row is a length: the penetration tolerance of the 3-D runs). The same iterate is kept
+        either way: only the label changes (and a run with ``max_failed_steps`` goes on). At a landing solved in a tiny sub-step the
         contact forces are an impulse divided by that sub-step (1e6 weights at 2e-8 s), and
         Newton can stall at a kink with a residual of 0.9 that is 5e-7 of the forces it
         balances (docs/solver_gaps.md). The energy ledger still judges what is kept; steps
