@@ -129,7 +129,8 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     The curved robot sliding down 35 deg aluminum at 0.5 Hz with low friction and adhesion (a
     run of studies/stress.toml): at a lift-off the residual stalls just above tol, and its
     floor grows as the sub-step shrinks. With accept_tol (default) such steps are kept as
-    loose steps; with accept_tol = 0 (every unsolved step fails, the behaviour before) the
+    loose steps; with accept_tol = 0 they are halved to the smallest sub-step and kept there
+    by impulse_accept_tol; with both 0 (every unsolved step fails, the behaviour before) the
     same run has a failed step.
     """
     kw = dict(
@@ -146,7 +147,11 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     loose = tumblemc.summarize(tumblemc.simulate(**kw))
     assert loose["failed_steps"] == 0
     assert loose["loose_steps"] > 0
-    strict = tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0, max_failed_steps=1))
+    # without accept_tol the step is halved down to the smallest sub-step, where
+    # impulse_accept_tol keeps it (its residual is far below 1e-6 of the step's momenta)
+    halved = tumblemc.summarize(tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0)))
+    assert halved["failed_steps"] == 0 and halved["loose_steps"] > 0 and halved["substeps"] > loose["substeps"]
+    strict = tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0, impulse_accept_tol=0.0, max_failed_steps=1))
     assert strict.attrs["failed_steps"] >= 1  # stopped there: too short to summarize
     assert strict.attrs["status"] == 1  # failed_steps: simulate flags the run as not valid
     assert strict.attrs["kernel_status"] == 4  # the time loop stopped (ST_STOPPED)

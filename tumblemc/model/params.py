@@ -311,7 +311,7 @@ class SolverOptions:
         at once, without halving, and the step counted as loose, if the max-norm of the
         model's residual there is at most this (at metres per second the residual can stall
         just above ``tol``, and its floor grows as the step shrinks). Allowed: 0, or from
-        ``tol`` to 1. 0 restores the rule before 2026-11-21: halve, then fail.
+        ``tol`` to 1. 0 (with ``impulse_accept_tol`` = 0) restores the rule before 2026-11-21: halve, then fail.
     landing_work : a converged contact (sub-)step whose normal impulse does positive work
         above this fraction of the step's energy scale (the weight times the length unit +
         the field's work bound over one step, ``m g x 1e-4 m + |m||B| (2 + 2 pi f dt)``) is
