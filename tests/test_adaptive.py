@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from tests.test_engine import _to_toml, assert_same_result, tiny
+from tests.tooling import load_tool
 from tumblemc.analysis.confseq import cs_interval, first_possible_stop, half_width, stop_count
 from tumblemc.analysis.coverage import interval_table, simulate_coverage
 from tumblemc.analysis.maps import proportion_ci
@@ -266,13 +267,7 @@ def test_a_run_lost_inside_a_round_is_simulated_again_or_stops_with_one_line() -
 
 def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
     """tools/adaptive_vs_fixed.py on a field sweep: one row per (incline, field) cell, each the fixed study's prefix."""
-    import importlib.util
-
-    root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("adaptive_vs_fixed", root / "tools" / "adaptive_vs_fixed.py")
-    assert spec is not None and spec.loader is not None
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
+    tool = load_tool("adaptive_vs_fixed")
     sweep = {"incline_deg": [0, 15], "field_mT": [10.0, 20.0], "samples": 8}
     run_study(tiny(**sweep), out=tmp_path / "f.nc", progress=False)
     run_study(tiny(**sweep, precision=0.3, ci="confidence-sequence"), out=tmp_path / "a.nc", progress=False)
@@ -286,13 +281,7 @@ def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
 
 def test_acceptance_what_if_against_hand_counts() -> None:
     """tools/adaptive_acceptance.py: a cell with one failure in 200 stops at 29 runs and misses it with P = 171/200."""
-    import importlib.util
-
-    root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("adaptive_acceptance", root / "tools" / "adaptive_acceptance.py")
-    assert spec is not None and spec.loader is not None
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
+    tool = load_tool("adaptive_acceptance")
     k, n = np.array([199, 200, 0]), np.array([200, 200, 200])
     res = tool.what_if(k, n, 0.1, 0, reps=2000, seed=3)
     # all-success and all-failure cells stop at 29 and lie inside; the 199/200 cell is outside
@@ -301,5 +290,5 @@ def test_acceptance_what_if_against_hand_counts() -> None:
     # the 199/200 cell stops at 29 runs when they miss the failure, else at 41 (40 of 41, inside Wilson)
     assert res["runs_kept"] == pytest.approx(2 * 29 + (171 / 200) * 29 + (29 / 200) * 41, abs=0.6)
     assert tool.what_if(k, n, 0.1, 200, reps=50)["mean_outside"] == 0.0
-    kt, nt = tool.cells_from_table(root / "docs" / "adaptive_default.md")
+    kt, nt = tool.cells_from_table(Path(__file__).resolve().parents[1] / "docs" / "adaptive_default.md")
     assert kt.size == 104 and np.all((kt >= 0) & (kt <= nt)) and 0 < np.count_nonzero((kt > 0) & (kt < nt)) < 104

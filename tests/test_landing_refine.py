@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import tumblemc
+from tests.tooling import load_tool
 from tumblemc.claims import SNAP_HOP
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.field import field_work_bound
@@ -136,16 +137,10 @@ def test_impulse_accept_tol_out_of_range_names_the_field(bad: float) -> None:
 
 def test_reproducer_ladder_small_version() -> None:
     """CI's small version of tools/reproducer_ladder.py (docs/energy_ledger.md): two coarse steps."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("reproducer_ladder", Path(__file__).parents[1] / "tools" / "reproducer_ladder.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    text = mod.main(["--dt", "1e-4", "--dt", "5e-5"])
+    text = load_tool("reproducer_ladder").main(["--dt", "1e-4", "--dt", "5e-5"])
     rows = [r.split("|") for r in text.splitlines()[2:]]
     assert [float(r[1]) for r in rows] == [1e-4, 5e-5]
     assert all(int(r[3]) == 0 for r in rows)  # no failed steps at the coarse steps
     assert all(float(r[2]) > 5.0 for r in rows)  # the snap hop: many times the no-slip gait
     with pytest.raises(SystemExit):
-        mod.main(["--dt", "3e-5"])  # does not divide 4 s
+        load_tool("reproducer_ladder").main(["--dt", "3e-5"])  # does not divide 4 s

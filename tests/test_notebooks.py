@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.tooling import load_tool
+
 nbformat = pytest.importorskip("nbformat")
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,12 +30,7 @@ def test_there_are_notebooks() -> None:
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_committed_executed_from_the_current_sources(path: Path) -> None:
     """The committed outputs (browsable on the repository page) come from tools/make_notebooks.py's sources."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("make_notebooks", ROOT / "tools" / "make_notebooks.py")
-    assert spec is not None and spec.loader is not None
-    mk = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mk)
+    mk = load_tool("make_notebooks")
     nb = nbformat.read(path, as_version=4)
     want = mk.build(mk.NOTEBOOKS[path.name])
     assert [c.source for c in nb.cells] == [c.source for c in want.cells], f"{path.name}: regenerate (python tools/make_notebooks.py)"

@@ -572,7 +572,7 @@ def _impulse_consistent(z, state, hc, prob, ws, tol_rel):  # type: ignore[no-unt
     rows against ``I_max (|w| + |w+|) + hc L rho`` (``L`` the sum of the contact forces'
     magnitudes, ``rho`` the largest lever ``|a1 - x|``, at least one length unit), the
     friction rows against ``(1 + L) (1 + |v+| + rho |w+|)``, the friction-cone row against
-    ``(1 + L)^2``; the geometric and complementarity rows (lengths and multipliers) within
+    ``(1 + L)^2`` plus ``IMPULSE_ACCEPT_LEN``; the geometric and complementarity rows (lengths and multipliers) within
     ``IMPULSE_ACCEPT_LEN``. Fills ``ws.Ft`` with the residual."""
     _plain_residual(z, prob, ws)
     F = ws.Ft

@@ -330,8 +330,8 @@ class SolverOptions:
         and its angular twin), its friction rows to this fraction of their terms, and its
         ECP, normal-cone and complementarity rows to 1e-3 in scaled units (0.1 um where the
         row is a length: the penetration tolerance of the 3-D runs). The same iterate is kept
-        either way: only the label changes (and a run with ``max_failed_steps`` goes on). At a landing solved in a tiny sub-step the
-        contact forces are an impulse divided by that sub-step (1e6 weights at 2e-8 s), and
+        either way: only the label changes (and a run with ``max_failed_steps`` goes on).
+        At a landing solved in a tiny sub-step the contact forces are an impulse divided by that sub-step (1e6 weights at 2e-8 s), and
         Newton can stall at a kink with a residual of 0.9 that is 5e-7 of the forces it
         balances (docs/solver_gaps.md). The energy ledger still judges what is kept; steps
         that converge are not affected. Allowed: 0 (never: such steps fail, the rule before
