@@ -12,7 +12,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_alloc
 from .field import field_work_bound
 from .layout import (
     ENERGY_GAIN_TOL,
@@ -89,7 +89,7 @@ def heading_change(q, iq, prm):  # type: ignore[no-untyped-def]
     return psi
 
 
-@jit
+@jit_alloc
 def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped-def]
     """Simulate ``B`` independent runs of one shape on one time grid.
 

@@ -11,7 +11,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_alloc
 from .field import field_dir, field_work_bound, program_field
 from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
@@ -365,7 +365,7 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     return True
 
 
-@jit
+@jit_alloc
 def _impact_guess(z, off, mk, state, h, model, scr):  # type: ignore[no-untyped-def]
     """Guess 9 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
 
@@ -833,7 +833,7 @@ def _recentre_undo(state, z, xoff, pstart):  # type: ignore[no-untyped-def]
             off += B_FIXED + pstart[kp + 1] - pstart[kp]
 
 
-@jit
+@jit_alloc
 def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     """Integrate ``n_steps`` steps; returns ``(status, failed_steps)``.
 

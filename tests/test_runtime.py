@@ -1,0 +1,110 @@
+"""Tests of the jit policy's memory rule (tumblemc/kernels/_jit.py).
+
+The kernels run without Numba's reference counting, except the few that allocate. That is
+safe while a kernel compiled without it neither allocates (Numba refuses to compile it) nor
+returns an array, and while the allocating kernels free what they allocate.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from numba.core.runtime import _nrt_python, rtsys
+
+import tumblemc
+from tumblemc.model.rows import TimeGrid, simulate_rows
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# a stress run with loose steps, sub-steps and landing guesses (stress run 122), and a 3-D run:
+# the paths that reach _impact_guess and the fallbacks
+HARD = {
+    "preset": "aluminum",
+    "incline_deg": 70.0,
+    "field_mT": 20.95,
+    "freq_hz": 0.5,
+    "mu": 0.8118,
+    "adhesion_C": 75.41,
+    "offset_deg": 26.94,
+}
+TILTED = {"preset": "aluminum", "field_mT": 20.0, "offset_deg": 27.0, "offset_axis": (0.7071, 0.0, 0.7071)}
+
+
+def _exercise() -> None:
+    """Runs through ``simulate`` and the batch kernel, on the ordinary and the hard paths."""
+    tumblemc.simulate(shape="cuboid", duration_s=0.5)
+    tumblemc.simulate(shape="curved", preset="aluminum", incline_deg=35.0, duration_s=0.5)
+    tumblemc.simulate(shape="cuboid", duration_s=1.0, **HARD)  # type: ignore[arg-type]
+    tumblemc.simulate(shape="cuboid", duration_s=0.3, **TILTED)  # type: ignore[arg-type]
+    grid = TimeGrid(periods=1.0, dt=5e-5, torque="start", rotation="momentum", transient_periods=0.5, success_ratio=0.5, max_failed_steps=1)
+    simulate_rows("cuboid", [HARD, {"preset": "paper", "incline_deg": 45.0, "freq_hz": 2.0}], grid)  # type: ignore[list-item]
+
+
+def test_kernels_free_every_array_they_allocate() -> None:
+    """Every NRT allocation made during runs (simulate and the batch kernel) is freed."""
+    _exercise()  # compiled or loaded before counting
+    _nrt_python.memsys_enable_stats()
+    try:
+        before = rtsys.get_allocation_stats()
+        _exercise()
+        after = rtsys.get_allocation_stats()
+    finally:
+        _nrt_python.memsys_disable_stats()
+    allocs = after.alloc - before.alloc
+    assert allocs > 0  # the time loops allocate their scratch: the count sees them
+    assert after.free - before.free == allocs
+    assert after.mi_free - before.mi_free == after.mi_alloc - before.mi_alloc
+
+
+CHECK = r"""
+import importlib, json, sys
+sys.path.insert(0, sys.argv[1])
+from numba.core import types
+from numba.core.registry import CPUDispatcher
+from tests.test_runtime import _exercise
+_exercise()
+
+def has_array(t):
+    if isinstance(t, types.Array):
+        return True
+    return any(has_array(x) for x in getattr(t, "types", ()))
+
+out = {"compiled": [], "unused": [], "bad_return": [], "with_nrt": []}
+for mod in ("batch", "field", "geometry", "ledger", "newton", "residual", "stepper"):
+    m = importlib.import_module("tumblemc.kernels." + mod)
+    for name, f in vars(m).items():
+        if not isinstance(f, CPUDispatcher) or f.py_func.__module__ != m.__name__:
+            continue
+        key = mod + "." + name
+        if f.targetoptions.get("_nrt", True):
+            out["with_nrt"].append(key)
+        if not f.overloads:
+            out["unused"].append(key)
+        for ov in f.overloads.values():
+            out["compiled"].append(key)
+            if not f.targetoptions.get("_nrt", True) and has_array(ov.signature.return_type):
+                out["bad_return"].append(key + ": " + str(ov.signature.return_type))
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.slow
+def test_no_kernel_without_reference_counting_returns_an_array(tmp_path: Path) -> None:
+    """Compiled from scratch, no kernel compiled without NRT returns an array.
+
+    A fresh ``NUMBA_CACHE_DIR`` makes every kernel compile in the child process, so each
+    dispatcher holds the signatures the runs used. The kernels with NRT on are exactly the
+    allocating ones, and the runs reach every kernel.
+    """
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.run([sys.executable, "-c", CHECK, str(ROOT)], capture_output=True, text=True, env=env, check=True, cwd=ROOT)
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["bad_return"] == []
+    assert sorted(out["with_nrt"]) == ["batch.run_batch", "stepper._impact_guess", "stepper.run"]
+    assert out["unused"] == []  # a new kernel that the runs above do not reach: extend _exercise
+    assert len(set(out["compiled"])) >= 40
