@@ -146,11 +146,12 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     )
     loose = tumblemc.summarize(tumblemc.simulate(**kw))
     assert loose["failed_steps"] == 0
-    assert loose["loose_steps"] > 0
+    assert loose["loose_steps"] > 0 and loose["impulse_steps"] == 0  # kept by accept_tol, at once
     # without accept_tol the step is halved down to the smallest sub-step, where
     # impulse_accept_tol keeps it (its residual is far below 1e-6 of the step's momenta)
     halved = tumblemc.summarize(tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0)))
     assert halved["failed_steps"] == 0 and halved["loose_steps"] > 0 and halved["substeps"] > loose["substeps"]
+    assert halved["impulse_steps"] > 0  # ... and counted apart
     strict = tumblemc.simulate(**kw, solver=tumblemc.SolverOptions(accept_tol=0.0, impulse_accept_tol=0.0, max_failed_steps=1))
     assert strict.attrs["failed_steps"] >= 1  # stopped there: too short to summarize
     assert strict.attrs["status"] == 1  # failed_steps: simulate flags the run as not valid

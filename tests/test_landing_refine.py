@@ -112,10 +112,11 @@ def test_slow_landing_at_a_small_step_is_kept_loose_not_failed() -> None:
     """
     (status, failed), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
     assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 1
+    assert row[L.R_IMPULSE] == 1  # counted apart: kept by the impulse rule, not by accept_tol
     assert row[L.R_RES] > 0.1  # not converged in the absolute sense: the record says so
     assert row[L.R_SUB] == tumblemc.SolverOptions().max_substep_depth  # it got there at the smallest sub-step
     (status, failed), row0, end0, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=0.0))
-    assert failed == 1 and row0[L.R_LOOSE] == 0
+    assert failed == 1 and row0[L.R_LOOSE] == 0 and row0[L.R_IMPULSE] == 0
     assert np.array_equal(end.state, end0.state)  # the same attempt, kept either way: only the label differs
     # the edge stops: the downward speed drops from 12 to below 1 (scaled), the ECP at the plane
     assert end.state[9] > -1.0 and row[L.R_PEN] < 1e-3

@@ -57,6 +57,11 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
         "long_name": "steps with a (sub-)step kept unsolved: without halving at a residual between the solver's tol and accept_tol, "
         "or at the smallest sub-step balancing momentum to impulse_accept_tol",
     },
+    "impulse_kept": {
+        "units": "1",
+        "long_name": "steps with a (sub-)step kept unsolved at the smallest sub-step because it balances momentum to impulse_accept_tol "
+        "(also counted in loose)",
+    },
     "field": {"units": "T", "long_name": "magnetic flux density B (world frame)"},
     "work_magnetic": {"units": "J", "long_name": "work of the magnetic torque since the start (h T_m . w+ per step)"},
     "work_gravity": {"units": "J", "long_name": "work of gravity since the start"},
@@ -162,6 +167,7 @@ OUTCOMES: dict[str, type] = {
     "fallbacks": np.int64,
     "failed_steps": np.int64,
     "loose_steps": np.int64,
+    "impulse_steps": np.int64,
     "max_penetration": np.float64,
     "energy_gain": np.float64,
     "energy_gain_ratio": np.float64,
@@ -193,6 +199,11 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "fallbacks": {"units": "1", "long_name": "damped or gradient Newton steps and extra solve strategies, total"},
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step"},
     "loose_steps": {"units": "1", "long_name": "time steps kept unsolved but within accept_tol or impulse_accept_tol"},
+    "impulse_steps": {
+        "units": "1",
+        "long_name": "of the loose steps, those kept at the smallest sub-step by impulse_accept_tol "
+        "(momentum balanced, residual above accept_tol)",
+    },
     "max_penetration": {"units": "m", "long_name": "largest depth of the robot below the plane"},
     "energy_gain": {
         "units": "J",
@@ -272,6 +283,7 @@ CRITICAL_OUTCOMES: dict[str, type] = {
     "substeps": np.int64,
     "failed_steps": np.int64,
     "loose_steps": np.int64,
+    "impulse_steps": np.int64,
 }
 
 
@@ -296,6 +308,7 @@ CRITICAL_ATTRS: dict[str, dict[str, Any]] = {
     "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total over the run's simulations"},
     "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step, total"},
     "loose_steps": {"units": "1", "long_name": "time steps kept unsolved but within accept_tol or impulse_accept_tol, total"},
+    "impulse_steps": {"units": "1", "long_name": "of the loose steps, those kept by impulse_accept_tol, total"},
 }
 
 

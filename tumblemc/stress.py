@@ -147,6 +147,12 @@ def study_summary(runs: xr.Dataset) -> dict[str, Any]:
         "ok_gain_ratio_q99": float(np.nanquantile(gain[ok], 0.99)) if ok.any() else math.nan,
         "ok_over_energy_tol": int(np.count_nonzero(gain[ok] > ENERGY_GAIN_TOL)),
     }
+    if "loose_steps" in runs.variables:
+        loose = runs["loose_steps"].values
+        out.update(loose_steps=int(loose.sum()), loose_runs=int(np.count_nonzero(loose)))
+    if "impulse_steps" in runs.variables:
+        imp = runs["impulse_steps"].values
+        out.update(impulse_steps=int(imp.sum()), impulse_runs=int(np.count_nonzero(imp)))
     if "check_run" in runs.variables:
         idx = runs["check_run"].values.astype(int)
         coarse = runs["progress_ratio"].values[idx]
@@ -174,8 +180,9 @@ def invalid_table(runs: xr.Dataset) -> list[dict[str, Any]]:
             r[c] = runs[c].values[i].item()
         for p in params:
             r[p] = float(runs[p].values[i])
-        for c in ("failed_steps", "loose_steps", "energy_gain_ratio", "progress_ratio"):
-            r[c] = runs[c].values[i].item()
+        for c in ("failed_steps", "loose_steps", "impulse_steps", "energy_gain_ratio", "progress_ratio"):
+            if c in runs.variables:
+                r[c] = runs[c].values[i].item()
         rows.append(r)
     return rows
 
@@ -269,6 +276,11 @@ def write_report(
         f"- energy ledger over the valid runs: largest gain {s['ok_gain_ratio_max']:.3g} of the energy scale"
         f" (99th percentile {s['ok_gain_ratio_q99']:.3g}; tolerance {ENERGY_GAIN_TOL:g}); valid runs above it: {s['ok_over_energy_tol']}",
     ]
+    if "impulse_steps" in s:
+        lines.append(
+            f"- loose steps: {s['loose_steps']} in {s['loose_runs']} runs; of them kept by impulse_accept_tol"
+            f" (unsolved at the smallest sub-step, momentum balanced): {s['impulse_steps']} in {s['impulse_runs']} runs"
+        )
     if "checked" in s:
         line = (
             f"- dt / 4 check: {s['checked']} runs re-simulated, {s['checked_both_ok']} valid at both steps;"

@@ -26,6 +26,7 @@ from .layout import (
     P_T,
     P_U,
     R_FALLBACK,
+    R_IMPULSE,
     R_LED,
     R_LOOSE,
     R_NIT,
@@ -53,7 +54,8 @@ OUT_EGAIN = 9  # numerical energy gain of the energy ledger (kernels/ledger.py)
 OUT_EREF = 10  # the energy scale of its tolerance (model/energy.py: energy_reference)
 OUT_LATERAL = 11  # lateral drift of the CM along the plane tangent t over the run (scaled length)
 OUT_HEADING = 12  # heading change, degrees (heading_change below)
-N_OUT = 13
+OUT_IMPULSE = 13  # steps kept by impulse_accept_tol alone, total (a subset of OUT_LOOSE)
+N_OUT = 14
 
 # ---- run status (also the engine's ``status`` flag values) -------------------------
 BATCH_OK = 0  # finished, every step converged
@@ -151,8 +153,10 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         fb = 0.0
         pen = 0.0
         loose = 0.0
+        impulse = 0.0
         for r in range(1, rows):
             loose += rec[r, R_LOOSE]
+            impulse += rec[r, R_IMPULSE]
             nit += rec[r, R_NIT]
             sub += rec[r, R_SUB]
             fb += rec[r, R_FALLBACK]
@@ -184,6 +188,7 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         out[b, OUT_FALLBACK] = fb
         out[b, OUT_PEN] = pen
         out[b, OUT_LOOSE] = loose
+        out[b, OUT_IMPULSE] = impulse
         out[b, OUT_EGAIN] = gain
         out[b, OUT_EREF] = eref
         lat = 0.0

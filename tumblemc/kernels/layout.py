@@ -121,7 +121,8 @@ R_FAIL = 24  # steps in the interval with a sub-step that did not converge at th
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
 R_LOOSE = 28  # steps in the interval with a (sub-)step kept unsolved: residual between O_TOL and O_ACCEPT, or by O_IMPULSE
 R_LED = 29  # the energy ledger at the recorded instant (N_LED columns, L_* order)
-N_REC = 40
+R_IMPULSE = 40  # steps in the interval with a (sub-)step kept by O_IMPULSE alone (a subset of R_LOOSE)
+N_REC = 41
 
 # ---- ledger columns (cumulative over the run, except L_KE) ---------------------------
 L_WMAG = 0  # work of the magnetic torque

@@ -60,6 +60,7 @@ from .layout import (
     R_ECP,
     R_FAIL,
     R_FALLBACK,
+    R_IMPULSE,
     R_LED,
     R_LN,
     R_LOOSE,
@@ -961,6 +962,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     acc_pen = 0.0
     acc_fail = 0
     acc_loose = 0
+    acc_impulse = 0
 
     xoff = np.zeros(3)  # the shifts of the origin along the plane (_recentre), added back in the record
     led = np.zeros(N_LED)  # the energy ledger (ledger.py), cumulative over the run
@@ -978,7 +980,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     lw = np.zeros(N_LW)
     led[L_KE] = kinetic_energy(state, prm, lw)
     row = 0
-    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0), led, xoff)
+    _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0, 0), led, xoff)
     status = ST_OK
     for step in range(n_steps):
         _recentre(state, (z, zprev, zprev2), xoff, prm, geo.pstart)
@@ -987,6 +989,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
         depth = 0
         step_failed = False
         step_loose = False
+        step_impulse = False  # a (sub-)step kept by O_IMPULSE (also loose)
         refine_cap = maxdepth  # landings are halved (O_NWORK) while depth < refine_cap
         refining = False  # the step is being refined: its start is in the snapshot
         restart = False  # return to the snapshot: the refinement failed or did not help
@@ -1005,6 +1008,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 hc = h * 0.5**snap_depth
                 depth = snap_depth
                 step_loose = False
+                step_impulse = False
             if hc > remaining:
                 hc = remaining
             _prepare(state, t, hc, prm, area_prev + peel, any_touch, scr)
@@ -1221,6 +1225,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         st = ST_OK
                         res = res_best
                         step_loose = True
+                        step_impulse = True
                         unsolved = True
                 if st != ST_OK:
                     # nothing converged at the smallest sub-step: keep the best attempt and
@@ -1340,6 +1345,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             failed_total += 1
         elif step_loose:
             acc_loose += 1
+            if step_impulse:
+                acc_impulse += 1
         if status == ST_NAN or status == ST_STOPPED:
             break
         if (step + 1) % record_every == 0 or step == n_steps - 1:
@@ -1347,9 +1354,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             _record(
                 rec, row, t, state, z, adh,
                 (mode, area_prev, lnsum, slip, ecp_off),
-                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose), led, xoff,
+                (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose, acc_impulse), led, xoff,
             )  # fmt: skip
             acc_loose = 0
+            acc_impulse = 0
             acc_nit = 0
             acc_res = 0.0
             acc_fb = 0
@@ -1366,10 +1374,10 @@ def _record(rec, row, t, state, z, adh, cs, acc, led, xoff):  # type: ignore[no-
     """Write record row ``row``: time, state and ECP (positions plus the origin's shift
     ``xoff``, :func:`_recentre`), applied adhesion ``adh``, the contact
     summary ``cs = (mode, area, lnsum, slip, ecp_off)`` (:func:`_contact_state`), the
-    interval's counters ``acc = (nit, res, nfb, nsub, pen, nfail, nloose)`` and the
+    interval's counters ``acc = (nit, res, nfb, nsub, pen, nfail, nloose, nimpulse)`` and the
     energy ledger ``led`` (:mod:`.ledger`)."""
     mode, area, lnsum, slip, ecp_off = cs
-    nit, res, nfb, nsub, pen, nfail, nloose = acc
+    nit, res, nfb, nsub, pen, nfail, nloose, nimpulse = acc
     rec[row, R_T] = t
     for i in range(3):
         rec[row, R_X + i] = state[i] + xoff[i]
@@ -1390,6 +1398,7 @@ def _record(rec, row, t, state, z, adh, cs, acc, led, xoff):  # type: ignore[no-
     rec[row, R_PEN] = max(pen, 0.0)
     rec[row, R_FAIL] = nfail
     rec[row, R_LOOSE] = nloose
+    rec[row, R_IMPULSE] = nimpulse
     for i in range(N_LED):
         rec[row, R_LED + i] = led[i]
 

@@ -70,6 +70,7 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         ``progress_ratio >= threshold``; a run with failed steps never climbed),
         ``max_penetration`` (m), ``failed_steps``, ``loose_steps`` (kept at a residual
         between the solver's ``tol`` and ``accept_tol``, or at the smallest sub-step by
+        ``impulse_accept_tol``), ``impulse_steps`` (those of the loose steps kept by
         ``impulse_accept_tol``), ``mean_newton_iterations``,
         ``mean_slip_speed`` (m/s, over the window), ``substeps``, ``fallbacks``,
         ``status`` (:func:`run_status`: 0 ok; 1 failed_steps, a step kept unconverged, so
@@ -124,6 +125,7 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
         "max_penetration": float(ds["penetration"].max()),
         "failed_steps": int(ds.attrs["failed_steps"]),
         "loose_steps": int(ds["loose"].sum()) if "loose" in ds else 0,
+        "impulse_steps": int(ds["impulse_kept"].sum()) if "impulse_kept" in ds else 0,
         "mean_newton_iterations": float(ds["newton_iterations"].sum()) / n_steps,
         "mean_slip_speed": float(ds["slip_speed"].values[i0:].mean()),
         "substeps": int(ds["substeps"].sum()),

@@ -185,6 +185,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
             res["failed_steps"][i] = int(o[KB.OUT_FAILED])
             res["max_penetration"][i] = o[KB.OUT_PEN] * s.units.length
             res["loose_steps"][i] = int(o[KB.OUT_LOOSE])
+            res["impulse_steps"][i] = int(o[KB.OUT_IMPULSE])
             res["energy_gain"][i] = o[KB.OUT_EGAIN] * s.units.energy
             res["energy_gain_ratio"][i] = o[KB.OUT_EGAIN] / o[KB.OUT_EREF]
             res["lateral_drift"][i] = o[KB.OUT_LATERAL] * s.units.length

@@ -361,6 +361,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "penetration": ("time", rows[:, L.R_PEN] * u.length),
             "failed": ("time", rows[:, L.R_FAIL].astype(np.int32)),
             "loose": ("time", rows[:, L.R_LOOSE].astype(np.int32)),
+            "impulse_kept": ("time", rows[:, L.R_IMPULSE].astype(np.int32)),
             "field": (xyz, field),
             **ledger_variables(spec.prm, u, rows, field, torque_per_tesla(spec.params, u)),
         },

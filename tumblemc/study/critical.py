@@ -47,6 +47,7 @@ def bisect_rows(shape: str, rows: Sequence[RunRow], grid: TimeGrid, lo: float, h
         out["substeps"][idx] += res["substeps"]
         out["failed_steps"][idx] += res["failed_steps"]
         out["loose_steps"][idx] += res["loose_steps"]
+        out["impulse_steps"][idx] += res["impulse_steps"]
         for j, i in enumerate(idx):
             if res["error"][j] and not err[i]:
                 err[i] = res["error"][j]
