@@ -17,10 +17,10 @@ Every Numba function in :mod:`tumblemc.kernels` is compiled through :func:`jit` 
   ``run_batch``, which own every array of a run, and ``_impact_guess``): with the runtime
   on, a compiled function takes an atomic reference on each array it receives or takes
   out of a tuple, and drops it on return, about 16% of a time step
-  (docs/kernel_experiments.md, "No reference counting"). The arrays a kernel sees are
+  (docs/kernel_experiments.md, "Where a step goes now"). The arrays a kernel sees are
   borrowed from its caller, which outlives the call. The rule that keeps this safe: a
   :func:`jit` kernel never allocates an array (Numba refuses to compile it) and never
-  returns one (tests/test_kernels.py checks every compiled kernel's return type).
+  returns one (tests/test_runtime.py checks every compiled kernel's return type).
 """
 
 from __future__ import annotations
