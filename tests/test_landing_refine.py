@@ -25,18 +25,9 @@ from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buf
 from tumblemc.model.run import prepare, run_inputs
 
 DATA = Path(__file__).parent / "data" / "fast_landings.npz"
-RUN_122 = {
-    "shape": "cuboid",
-    "preset": "aluminum",
-    "incline_deg": 70.0,
-    "field_mT": 20.95,
-    "freq_hz": 0.5,
-    "duration_s": 4.0,
-    "mu": 0.8118,
-    "adhesion_C": 75.41,
-    "offset_deg": 26.94,
-}
-SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6, **SNAP_HOP}  # tools/fast_landings.py
+FAST_LANDINGS = load_tool("fast_landings")  # the runs the saved landings come from
+RUN_122 = FAST_LANDINGS.RUN_122
+SMALL_STEP = {**FAST_LANDINGS.SMALL_STEP, **SNAP_HOP}
 
 
 def _step(case: str, run_kw: dict[str, Any], solver: tumblemc.SolverOptions, dt_factor: float = 1.0) -> tuple[Any, np.ndarray, Start, Any]:
