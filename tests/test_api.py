@@ -233,7 +233,7 @@ def test_contact_state_classification() -> None:
     state = np.zeros(13)  # at the origin, at rest
     scr = Scratch(
         sc=np.zeros(N_SC), R=np.zeros(9), tmp=np.zeros(3), tmp2=np.zeros(3), tmp3=np.zeros(3),
-        cg=np.zeros(N_CG), qs=np.zeros(N_QS), iters=np.zeros(3, np.int64), prob=None, prob6=None,
+        cg=np.zeros(N_CG), qs=np.zeros(N_QS), iters=np.zeros(3, np.int64), prob=None, prob6=None, hts=np.zeros(8),
     )  # fmt: skip
     z[16 + 4] = 1.0  # +z face alone: face contact with its area
     mode, area, *_ = _contact_state(z, state, prm, geo, scr)

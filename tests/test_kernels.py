@@ -606,6 +606,99 @@ def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
         assert np.array_equal(A1, A2, equal_nan=True) and np.array_equal(ws1.piv, ws2.piv)
 
 
+def _jtj_dense(J: np.ndarray, n: int, nu: float) -> np.ndarray:
+    """The slow obvious twin: the dense triple loop in Python floats (IEEE, no FMA)."""
+    A = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i, n):
+            acc = 0.0
+            for k in range(n):
+                acc += float(J[k, i]) * float(J[k, j])
+            A[i, j] = acc
+            A[j, i] = acc
+        A[i, i] += nu
+    return A
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_jtj_shift_is_the_dense_sum_bit_for_bit(seed: int) -> None:
+    """``jtj_shift`` (the sparse J^T J + nu I of the Levenberg-Marquardt step) is the dense sum.
+
+    Sparse J with signed zeros, subnormals and products that underflow to -0: A is the
+    dense triple loop's bit for bit (only the leading n x n block written); with inf or NaN
+    in J, the same NaNs and values as the dense loop.
+    """
+    from tumblemc.kernels.newton import jtj_shift
+
+    rng = np.random.default_rng(seed)
+    n = 6 + 2 * seed
+    J = np.where(rng.random((n, n)) < 0.25, rng.standard_normal((n, n)) * 10.0 ** rng.integers(-170, 3, (n, n)), 0.0)
+    J[0, 1] = -0.0
+    J[1, :] = 0.0  # an empty row
+    J[2, 0], J[2, 3] = 1e-200, -1e-200  # their product underflows to -0
+    J[3, 0], J[3, 3] = 5e-324, 3.0  # a subnormal
+    if seed % 4 == 3:
+        J[n - 1, n - 2] = np.inf if seed % 8 == 3 else np.nan
+    nu = float(rng.uniform(0.0, 2.0)) if seed % 2 else 0.0
+    A = np.full((n + 2, n + 2), 7.0)
+    cols = np.zeros(n + 2, np.int64)
+    J2 = np.full((n + 2, n + 2), 5.0)
+    J2[:n, :n] = J
+    jtj_shift(J2, n, nu, A, cols)
+    ref = _jtj_dense(J, n, nu)
+    if seed % 4 == 3:
+        assert np.isnan(A[:n, :n]).any()
+        assert np.array_equal(np.isnan(A[:n, :n]), np.isnan(ref))
+        assert np.array_equal(A[:n, :n], ref, equal_nan=True)
+    else:
+        assert A[:n, :n].tobytes() == ref.tobytes()
+    assert np.all(A[n:, :] == 7.0) and np.all(A[:, n:] == 7.0)
+
+
+@pytest.mark.parametrize("shape", ["cuboid", "curved"])
+@pytest.mark.parametrize("seed", range(4))
+def test_lowest_point_against_twin(shape: str, seed: int) -> None:
+    """``lowest_point`` against a Python twin of the same sums.
+
+    The lowest support height (minus the pad) and every height in ``hts`` bit for bit, the
+    centroid of the points within ``tol`` of the lowest to round-off.
+    """
+    from tumblemc.kernels.stepper import lowest_point
+    from tumblemc.model.run import prepare, run_inputs
+
+    spec = prepare(run_inputs(shape=shape, incline_deg=10.0 * seed, duration_s=0.001))
+    geo, prm = spec.geo, spec.prm
+    rng = np.random.default_rng(seed)
+    q = rng.standard_normal(4)
+    q /= np.linalg.norm(q)
+    R = naive.rotmat(q).ravel()
+    x = rng.standard_normal(3)
+    nrm = prm[L.P_N : L.P_N + 3]
+    s0, s1 = int(geo.sup_start[0]), int(geo.sup_start[1])
+    pts = geo.sup_pts[s0:s1]
+
+    def height(p: np.ndarray) -> float:
+        h = 0.0
+        for i in range(3):
+            wi = float(x[i])
+            for j in range(3):
+                wi += float(R[3 * i + j]) * float(p[j])
+            h += float(nrm[i]) * wi
+        return h
+
+    heights = np.array([height(p) for p in pts])
+    for tol in (0.0, 1e-3, 0.2, 1e3):
+        hts = np.full(s1 - s0 + 3, np.nan)
+        out = np.zeros(3)
+        low = lowest_point(x, R, prm, geo, 0, out, tol, hts)
+        assert low == heights.min() - geo.sup_pad[0]
+        assert hts[: s1 - s0].tobytes() == heights.tobytes()
+        assert np.isnan(hts[s1 - s0 :]).all()  # nothing past the piece's points
+        near = heights <= heights.min() + tol
+        world = x + pts[near] @ R.reshape(3, 3).T
+        np.testing.assert_allclose(out, world.mean(axis=0), rtol=0, atol=1e-12 * (1 + np.abs(world).max()))
+
+
 def test_workspace_fields_by_name() -> None:
     """make_workspace builds every field by name with its shape and dtype (a swap shows)."""
     from tumblemc.kernels.residual import N_RS

@@ -197,9 +197,42 @@ def lu_solve(A, order, b, n, unz, ucnt, lnz, lcnt, y):  # type: ignore[no-untype
 
 
 @jit
-def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
-    """d = -(J^T J + nu I)^-1 J^T F. False if even that fails."""
-    A = ws.A
+def jtj_shift(J, n, nu, A, cols):  # type: ignore[no-untyped-def]
+    """``A[:n, :n] = J^T J + nu I`` for :func:`_lm_direction`; ``cols``: int64[n] scratch.
+
+    Summed row by row of J over its nonzeros only (J is sparse: the dense triple loop took
+    7% of the curved robot's hard runs). Each entry receives the same products in the same
+    order as the dense sum ``sum_k J[k, i] J[k, j]`` started at +0.0; the products left out
+    are +-0, which leave such a sum unchanged, so A is the dense loop's bit for bit. A J
+    with inf or NaN takes the dense loop, where ``0 x inf`` gives its NaN.
+    """
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = 0.0
+    finite = True
+    for k in range(n):
+        m = 0
+        for j in range(n):
+            v = J[k, j]
+            if v != 0.0:
+                if not v - v == 0.0:  # inf or NaN
+                    finite = False
+                cols[m] = j
+                m += 1
+        if not finite:
+            break
+        for a in range(m):
+            ca = cols[a]
+            ja = J[k, ca]
+            for b in range(a, m):
+                cb = cols[b]
+                A[ca, cb] += ja * J[k, cb]
+    if finite:
+        for i in range(n):
+            for j in range(i + 1, n):
+                A[j, i] = A[i, j]
+            A[i, i] += nu
+        return
     for i in range(n):
         for j in range(i, n):
             acc = 0.0
@@ -208,6 +241,13 @@ def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
             A[i, j] = acc
             A[j, i] = acc
         A[i, i] += nu
+
+
+@jit
+def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
+    """d = -(J^T J + nu I)^-1 J^T F. False if even that fails."""
+    A = ws.A
+    jtj_shift(J, n, nu, A, ws.piv)  # piv as scratch: lu_factor sets it itself
     if not lu_factor(A, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0):
         return False
     for i in range(n):

@@ -107,12 +107,13 @@ of the 6-unknown free-flight system (:class:`~.newton.Workspace`) and the unknow
 (warm start in, last solution out), ``z6`` and ``zsave`` (float64[n], [6], [n]). Build with
 :func:`make_buffers`."""
 
-Scratch = namedtuple("Scratch", ["sc", "R", "tmp", "tmp2", "tmp3", "cg", "qs", "iters", "prob", "prob6"])
+Scratch = namedtuple("Scratch", ["sc", "R", "tmp", "tmp2", "tmp3", "cg", "qs", "iters", "prob", "prob6", "hts"])
 Scratch.__doc__ = """The time loop's small temporaries, allocated once per run: step data ``sc`` (N_SC),
 the rotation ``R`` (9, row-major), three 3-vectors, the blocks of ``constraint_eval`` (N_CG)
-and ``quat_step`` (N_QS), the solver's iteration counters ``iters`` (int64[3]), and the two
+and ``quat_step`` (N_QS), the solver's iteration counters ``iters`` (int64[3]), the two
 systems a step solves (:class:`~.residual.Problem`, sharing ``sc``): with contact (``prob``)
-and in free flight (``prob6``)."""
+and in free flight (``prob6``), and the support points' heights ``hts`` (float64, at least
+the most support points of a piece; :func:`lowest_point`)."""
 
 CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as touching
 CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
@@ -214,31 +215,30 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, scr):  # type: ignore[n
 
 
 @jit
-def lowest_point(x, R, prm, geo, kp, out, tol):  # type: ignore[no-untyped-def]
+def lowest_point(x, R, prm, geo, kp, out, tol, hts):  # type: ignore[no-untyped-def]
     """Lowest point of piece ``kp``: returns its height minus the pad; ``out`` receives the
     centroid (world) of the support points within ``tol`` of the lowest one, the
-    middle of the touching face or edge, a good first guess of the ECP."""
+    middle of the touching face or edge, a good first guess of the ECP. ``hts`` (float64,
+    at least the piece's support points) receives their heights: one pass computes them
+    (the curved robot's pieces have 226 points), the second only compares."""
+    s0 = geo.sup_start[kp]
+    s1 = geo.sup_start[kp + 1]
     best = math.inf
-    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
+    for p in range(s0, s1):
         hgt = 0.0
         for i in range(3):
             wi = x[i]
             for j in range(3):
                 wi += R[3 * i + j] * geo.sup_pts[p, j]
             hgt += prm[P_N + i] * wi
+        hts[p - s0] = hgt
         if hgt < best:
             best = hgt
     for i in range(3):
         out[i] = 0.0
     cnt = 0
-    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
-        hgt = 0.0
-        for i in range(3):
-            wi = x[i]
-            for j in range(3):
-                wi += R[3 * i + j] * geo.sup_pts[p, j]
-            hgt += prm[P_N + i] * wi
-        if hgt <= best + tol:
+    for p in range(s0, s1):
+        if hts[p - s0] <= best + tol:
             cnt += 1
             for i in range(3):
                 wi = x[i]
@@ -266,7 +266,7 @@ def _landing_guess(z, off, kp, motion, h, model, scr, tol, keep_forces):  # type
     cg = scr.cg
     mk = geo.pstart[kp + 1] - geo.pstart[kp]
     a1 = z[off + B_A1 : off + B_A1 + 3]
-    hgt = lowest_point(x, R, prm, geo, kp, a1, tol)
+    hgt = lowest_point(x, R, prm, geo, kp, a1, tol, scr.hts)
     gap = max(hgt, 0.0)
     for i in range(3):
         z[off + B_A2 + i] = a1[i] - gap * prm[P_N + i]
@@ -634,7 +634,7 @@ def _flight_clears(state, z6, hc, prm, geo, scr):  # type: ignore[no-untyped-def
     for i in range(3):
         xend[i] = state[i] + hc * z6[i]
     for kp in range(geo.pstart.shape[0] - 1):
-        if lowest_point(xend, R, prm, geo, kp, tmp, LOW_TOL) <= FLIGHT_MARGIN:
+        if lowest_point(xend, R, prm, geo, kp, tmp, LOW_TOL, scr.hts) <= FLIGHT_MARGIN:
             return False
     return True
 
@@ -897,6 +897,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     K = geo.pstart.shape[0] - 1
     pempty = geo.pstart[:1]
     sc = np.zeros(N_SC)
+    nsup = 1
+    for kp in range(K):
+        nsup = max(nsup, geo.sup_start[kp + 1] - geo.sup_start[kp])
     scr = Scratch(
         sc=sc,
         R=np.zeros(9),  # 3x3 row-major
@@ -908,7 +911,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
         iters=np.zeros(3, np.int64),
         prob=Problem(sc=sc, prm=prm, ctype=geo.ctype, cdata=geo.cdata, pstart=geo.pstart),
         prob6=Problem(sc=sc, prm=prm, ctype=geo.ctype, cdata=geo.cdata, pstart=pempty),
+        hts=np.zeros(nsup),  # lowest_point's support heights
     )
+    hts = scr.hts
     prob = scr.prob
     prob6 = scr.prob6
     R = scr.R
@@ -1025,7 +1030,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 tmp3[i] = state[i] + hc * (state[7 + i] + hc * sc[S_FEXT + i] / prm[P_MASS])
             clear = True
             for kp in range(K):
-                if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL) < -FLIGHT_PRECHECK:
+                if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL, hts) < -FLIGHT_PRECHECK:
                     clear = False
                     break
             if clear:
@@ -1107,7 +1112,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                             for kp in range(K):
                                 mk = geo.pstart[kp + 1] - geo.pstart[kp]
                                 _landing_guess(z, off, kp, (tmp3, state[7:10], state[10:13]), hc, model, scr, VERTEX_TOL, False)
-                                hk = lowest_point(tmp3, R, prm, geo, kp, tmp, VERTEX_TOL)
+                                hk = lowest_point(tmp3, R, prm, geo, kp, tmp, VERTEX_TOL, hts)
                                 if hk < low:
                                     low = hk
                                     kl = off
@@ -1331,7 +1336,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 off += B_FIXED + mk
             quat_to_rot(state, 3, R, 0)
             for kp in range(K):
-                pen = -lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL)
+                pen = -lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL, hts)
                 if pen > acc_pen:
                     acc_pen = pen
             if refining and remaining <= ref_end + 1e-12 * h:
