@@ -82,7 +82,16 @@ FB_DEGENERATE = 1e-14  # |(a, b)| below which the FB pair is treated as a kink
 @jit
 def fb(a, b):  # type: ignore[no-untyped-def]
     """Fischer-Burmeister ``a + b - hypot(a, b)`` without cancellation for a, b > 0."""
-    r = math.hypot(a, b)
+    return fb_r(a, b, math.hypot(a, b))
+
+
+@jit
+def fb_r(a, b, r):  # type: ignore[no-untyped-def]
+    """:func:`fb` with ``r = hypot(a, b)`` already computed.
+
+    The residual needs ``r`` again for the Jacobian and for the degeneracy test: computed
+    once, it saves two libm calls per row and Jacobian (the same value, so the same bits).
+    """
     s = a + b
     if s > 0.0:
         # a * b first would underflow for tiny a, b; ordering keeps fb(a, b) == fb(b, a);
@@ -489,10 +498,16 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
 
     # ---- Fischer-Burmeister rows (row index == its complementarity variable) ---------
     theta = 0.0
-    if want_J and mu_s == 0.0:
+    # |(a, b)| of the plain FB rows, once: held in F[i] (an FB row's F is 0 until its value
+    # is written below) for fb_r, the Jacobian's rho and the degeneracy test
+    have_r = want_J and mu_s == 0.0
+    if have_r:
         for i in range(n):
-            if isfb[i] == 1 and math.hypot(z[i], fbb[i]) < FB_DEGENERATE:
-                isfb[i] = 2
+            if isfb[i] == 1:
+                r = math.hypot(z[i], fbb[i])
+                F[i] = r
+                if r < FB_DEGENERATE:
+                    isfb[i] = 2
     for i in range(n):
         if isfb[i] == 0:
             theta += F[i] * F[i]
@@ -507,9 +522,10 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
                 ca = 1.0 - a / rho
                 cb = 1.0 - b / rho
         else:
-            val = fb(a, b)
+            r = F[i] if have_r else math.hypot(a, b)
+            val = fb_r(a, b, r)
             if want_J and isfb[i] == 1:
-                rho = math.hypot(a, b)
+                rho = r
                 ca = 1.0 - a / rho
                 cb = 1.0 - b / rho
             elif want_J:
