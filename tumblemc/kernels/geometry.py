@@ -103,17 +103,14 @@ def quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
 
 
 @jit
-def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
-    """End-of-step orientation and its derivative into the block o[io:io+N_QS].
+def quat_next(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
+    """``Q+`` alone, at ``io + QS_Q`` (with ``E(Q)`` at ``io + QS_E1``).
 
-    ``Q+ = normalise(Q + h/2 E(Q) w+)`` (MODEL.md, discrete model) at ``io + QS_Q``, with
-    ``Q = q[iq:iq+4]`` and ``w+ = w[iw:iw+3]``; ``d(theta)/d(w+)`` (3x3) at ``io + QS_JTH``:
-    a perturbation ``dw`` of ``w+`` rotates the end pose by the small world-frame angle
-    ``Jth @ dw``, i.e. ``dR = [Jth dw]x R``. E(Q) and E(Q+) are left at ``QS_E1``,
-    ``QS_E2``. Returns |Q~| before normalisation.
+    The first part of :func:`quat_step`, the same arithmetic, for the callers that need no
+    derivative (the time loop's poses, the residual without its Jacobian). Returns |Q~|
+    before normalisation.
     """
     e1 = io + QS_E1
-    e2 = io + QS_E2
     qn = io + QS_Q
     quat_E(q, iq, o, e1)
     ss = 0.0
@@ -126,6 +123,23 @@ def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
     nrm = math.sqrt(ss)
     for k in range(4):
         o[qn + k] /= nrm
+    return nrm
+
+
+@jit
+def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
+    """End-of-step orientation and its derivative into the block o[io:io+N_QS].
+
+    ``Q+ = normalise(Q + h/2 E(Q) w+)`` (MODEL.md, discrete model) at ``io + QS_Q``, with
+    ``Q = q[iq:iq+4]`` and ``w+ = w[iw:iw+3]``; ``d(theta)/d(w+)`` (3x3) at ``io + QS_JTH``:
+    a perturbation ``dw`` of ``w+`` rotates the end pose by the small world-frame angle
+    ``Jth @ dw``, i.e. ``dR = [Jth dw]x R``. E(Q) and E(Q+) are left at ``QS_E1``,
+    ``QS_E2``. Returns |Q~| before normalisation.
+    """
+    e1 = io + QS_E1
+    e2 = io + QS_E2
+    qn = io + QS_Q
+    nrm = quat_next(q, iq, w, iw, h, o, io)
     quat_E(o, qn, o, e2)
     c = h / nrm
     jt = io + QS_JTH

@@ -39,7 +39,7 @@ import math
 from collections import namedtuple
 
 from ._jit import jit
-from .geometry import CG_G, CG_H, N_CG, N_QS, QS_JTH, QS_Q, constraint_eval, cross, quat_step, quat_to_rot, skew
+from .geometry import CG_G, CG_H, N_CG, N_QS, QS_JTH, QS_Q, constraint_eval, cross, quat_next, quat_step, quat_to_rot, skew
 from .layout import (
     B_A1,
     B_A2,
@@ -226,7 +226,10 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
     er = prm[P_ER]
     # offsets: v+ = z[0:3], w+ = z[3:6], w = sc[S_W:], n = prm[P_N:], t = prm[P_T:], o = prm[P_O:]
 
-    quat_step(sc, S_Q, z, 3, h, s, RS_QS)
+    if want_J:
+        quat_step(sc, S_Q, z, 3, h, s, RS_QS)
+    else:  # Q+ alone: d(theta)/d(w+) only serves the Jacobian
+        quat_next(sc, S_Q, z, 3, h, s, RS_QS)
     quat_to_rot(s, RS_QN, s, RS_R)
     for i in range(3):
         s[RS_XP + i] = sc[S_X + i] + h * z[i]
@@ -522,8 +525,12 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
                 ca = 1.0 - a / rho
                 cb = 1.0 - b / rho
         else:
-            r = F[i] if have_r else math.hypot(a, b)
-            val = fb_r(a, b, r)
+            if have_r:  # (want_J) r held in F[i]
+                r = F[i]
+                val = fb_r(a, b, r)
+            else:
+                r = 0.0
+                val = fb(a, b)
             if want_J and isfb[i] == 1:
                 rho = r
                 ca = 1.0 - a / rho
