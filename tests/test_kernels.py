@@ -570,31 +570,6 @@ def test_geometry_kernels_against_naive_twins(seed: int) -> None:
         assert np.allclose(H, Hd, rtol=1e-5, atol=1e-7)
 
 
-@pytest.mark.parametrize("seed", range(8))
-def test_quat_next_is_quat_steps_pose(seed: int) -> None:
-    """``quat_next`` is ``quat_step``'s pose, bit for bit.
-
-    The pose alone, for callers without a Jacobian: ``Q+``, ``E(Q)`` and the norm of
-    ``quat_step``, and nothing else of the block written.
-    """
-    from tumblemc.kernels import geometry as G
-
-    rng = np.random.default_rng(100 + seed)
-    q = rng.standard_normal(4)
-    q /= np.linalg.norm(q)
-    w = rng.standard_normal(3) * 10.0 ** rng.uniform(-2, 3)
-    h = 10.0 ** rng.uniform(-6, -2)
-    full, part = np.zeros(G.N_QS), np.full(G.N_QS, np.nan)
-    n1 = G.quat_step(q, 0, w, 0, h, full, 0)
-    n2 = G.quat_next(q, 0, w, 0, h, part, 0)
-    assert n1 == n2
-    keep = np.zeros(G.N_QS, bool)
-    keep[G.QS_Q : G.QS_Q + 4] = True
-    keep[G.QS_E1 : G.QS_E1 + 12] = True
-    assert part[keep].tobytes() == full[keep].tobytes()
-    assert np.isnan(part[~keep]).all()
-
-
 @pytest.mark.parametrize("seed", range(12))
 def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
     """``copy_amax`` is a copy and its largest magnitude.

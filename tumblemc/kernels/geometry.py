@@ -103,30 +103,6 @@ def quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
 
 
 @jit
-def quat_next(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
-    """``Q+`` alone, at ``io + QS_Q`` (with ``E(Q)`` at ``io + QS_E1``).
-
-    The first part of :func:`quat_step`, the same arithmetic, for the callers that need no
-    derivative (the time loop's poses, the residual without its Jacobian). Returns |Q~|
-    before normalisation.
-    """
-    e1 = io + QS_E1
-    qn = io + QS_Q
-    quat_E(q, iq, o, e1)
-    ss = 0.0
-    for k in range(4):
-        acc = q[iq + k]
-        for j in range(3):
-            acc += 0.5 * h * o[e1 + 3 * k + j] * w[iw + j]
-        o[qn + k] = acc
-        ss += acc * acc
-    nrm = math.sqrt(ss)
-    for k in range(4):
-        o[qn + k] /= nrm
-    return nrm
-
-
-@jit
 def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
     """End-of-step orientation and its derivative into the block o[io:io+N_QS].
 
@@ -139,7 +115,17 @@ def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
     e1 = io + QS_E1
     e2 = io + QS_E2
     qn = io + QS_Q
-    nrm = quat_next(q, iq, w, iw, h, o, io)
+    quat_E(q, iq, o, e1)
+    ss = 0.0
+    for k in range(4):
+        acc = q[iq + k]
+        for j in range(3):
+            acc += 0.5 * h * o[e1 + 3 * k + j] * w[iw + j]
+        o[qn + k] = acc
+        ss += acc * acc
+    nrm = math.sqrt(ss)
+    for k in range(4):
+        o[qn + k] /= nrm
     quat_E(o, qn, o, e2)
     c = h / nrm
     jt = io + QS_JTH

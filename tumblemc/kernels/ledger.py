@@ -98,7 +98,7 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
     in sub-steps, ``O_NWORK``).
 
     ``state`` is the start-of-step state (``x, Q, v, w``), ``z`` the step's solution,
-    ``qs`` the :func:`~.geometry.quat_next` block of the end pose (``Q+`` at ``QS_Q``),
+    ``qs`` the :func:`~.geometry.quat_step` block of the end pose (``Q+`` at ``QS_Q``),
     ``flight`` whether the step was solved without contact (its contact blocks carry no
     forces), ``touching_prev`` and ``area_prev`` the contact of the previous step (which set
     this step's electrostatic and adhesion impulses, as in :func:`~.stepper._prepare`),

@@ -39,7 +39,7 @@ import math
 from collections import namedtuple
 
 from ._jit import jit
-from .geometry import CG_G, CG_H, N_CG, N_QS, QS_JTH, QS_Q, constraint_eval, cross, quat_next, quat_step, quat_to_rot, skew
+from .geometry import CG_G, CG_H, N_CG, N_QS, QS_JTH, QS_Q, constraint_eval, cross, quat_step, quat_to_rot, skew
 from .layout import (
     B_A1,
     B_A2,
@@ -79,10 +79,13 @@ time loop builds its two problems once per run; ``sc`` is refilled in place ever
 FB_DEGENERATE = 1e-14  # |(a, b)| below which the FB pair is treated as a kink
 
 
-@jit
-def fb(a, b):  # type: ignore[no-untyped-def]
-    """Fischer-Burmeister ``a + b - hypot(a, b)`` without cancellation for a, b > 0."""
-    return fb_r(a, b, math.hypot(a, b))
+def fb(a: float, b: float) -> float:
+    """Fischer-Burmeister ``a + b - hypot(a, b)`` without cancellation for a, b > 0.
+
+    :func:`fb_r` with its ``r``; plain Python (the kernels call ``fb_r``, with ``r`` that
+    they need again), for tests and callers outside the kernels.
+    """
+    return float(fb_r(a, b, math.hypot(a, b)))
 
 
 @jit
@@ -226,10 +229,7 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
     er = prm[P_ER]
     # offsets: v+ = z[0:3], w+ = z[3:6], w = sc[S_W:], n = prm[P_N:], t = prm[P_T:], o = prm[P_O:]
 
-    if want_J:
-        quat_step(sc, S_Q, z, 3, h, s, RS_QS)
-    else:  # Q+ alone: d(theta)/d(w+) only serves the Jacobian
-        quat_next(sc, S_Q, z, 3, h, s, RS_QS)
+    quat_step(sc, S_Q, z, 3, h, s, RS_QS)
     quat_to_rot(s, RS_QN, s, RS_R)
     for i in range(3):
         s[RS_XP + i] = sc[S_X + i] + h * z[i]
@@ -525,12 +525,8 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
                 ca = 1.0 - a / rho
                 cb = 1.0 - b / rho
         else:
-            if have_r:  # (want_J) r held in F[i]
-                r = F[i]
-                val = fb_r(a, b, r)
-            else:
-                r = 0.0
-                val = fb(a, b)
+            r = F[i] if have_r else math.hypot(a, b)
+            val = fb_r(a, b, r)
             if want_J and isfb[i] == 1:
                 rho = r
                 ca = 1.0 - a / rho

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._jit import jit, jit_alloc
 from .field import field_dir, field_work_bound, program_field
-from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_next, quat_to_rot
+from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
     B_A1,
     B_A2,
@@ -629,7 +629,7 @@ def _flight_clears(state, z6, hc, prm, geo, scr):  # type: ignore[no-untyped-def
     R = scr.R
     xend = scr.tmp3
     tmp = scr.tmp
-    quat_next(state, 3, z6, 3, hc, qs, 0)
+    quat_step(state, 3, z6, 3, hc, qs, 0)
     quat_to_rot(qs, QS_Q, R, 0)
     for i in range(3):
         xend[i] = state[i] + hc * z6[i]
@@ -1024,7 +1024,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             unsolved = False  # kept by O_IMPULSE: not a warm start to extrapolate from (as if failed)
             st6 = ST_NAN
             res6 = 0.0
-            quat_next(state, 3, state, 10, hc, qs, 0)
+            quat_step(state, 3, state, 10, hc, qs, 0)
             quat_to_rot(qs, QS_Q, R, 0)
             for i in range(3):
                 tmp3[i] = state[i] + hc * (state[7 + i] + hc * sc[S_FEXT + i] / prm[P_MASS])
@@ -1101,7 +1101,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         for i in range(n):
                             z[i] = zsave[i]
                         if guess == 9:
-                            quat_next(state, 3, state, 10, hc, qs, 0)
+                            quat_step(state, 3, state, 10, hc, qs, 0)
                             quat_to_rot(qs, QS_Q, R, 0)
                             for i in range(3):
                                 tmp3[i] = state[i] + hc * state[7 + i]
@@ -1123,7 +1123,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         elif guess == 8:
                             # the nearly level edge laid level: pre-impact v, snapped w, the
                             # ECP in the middle of the edge at the snapped pose
-                            quat_next(state, 3, state, 10, hc, qs, 0)
+                            quat_step(state, 3, state, 10, hc, qs, 0)
                             quat_to_rot(qs, QS_Q, R, 0)
                             for i in range(3):
                                 tmp3[i] = state[i] + hc * state[7 + i]
@@ -1132,7 +1132,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                             for i in range(3):
                                 z[i] = state[7 + i]
                                 z[3 + i] = tmp[i]
-                            quat_next(state, 3, z, 3, hc, qs, 0)
+                            quat_step(state, 3, z, 3, hc, qs, 0)
                             quat_to_rot(qs, QS_Q, R, 0)
                             off = 6
                             for kp in range(K):
@@ -1144,7 +1144,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                 guess -= 4
                                 for i in range(6):
                                     z[i] = 0.0
-                            quat_next(state, 3, state, 10, hc, qs, 0)
+                            quat_step(state, 3, state, 10, hc, qs, 0)
                             quat_to_rot(qs, QS_Q, R, 0)
                             if guess == 4:
                                 # the nearly flat face laid flat: pre-impact v, snapped w; the
@@ -1249,7 +1249,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         status = ST_STOPPED
                         break
                 if st == ST_OK and not flight and not free and nwork_max > 0.0 and depth < refine_cap and (refining or remaining == h):
-                    quat_next(state, 3, z, 3, hc, qs, 0)
+                    quat_step(state, 3, z, 3, hc, qs, 0)
                     ledger_step(state, z, hc, qs, False, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
                     have_ls = True
                     if ls[L_WN] > nwork_max:
@@ -1286,7 +1286,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     refine_cap = snap_depth
                     continue
                 if not have_ls:
-                    quat_next(state, 3, z, 3, hc, qs, 0)
+                    quat_step(state, 3, z, 3, hc, qs, 0)
                     ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
                     have_ls = True
                 wn_ref += max(ls[L_WN], 0.0)
@@ -1309,7 +1309,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     status = ST_NAN
             if status == ST_NAN:
                 break
-            quat_next(state, 3, z, 3, hc, qs, 0)
+            quat_step(state, 3, z, 3, hc, qs, 0)
             if not have_ls:
                 ledger_step(state, z, hc, qs, flight or free, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
             ledger_add(led, ls)
