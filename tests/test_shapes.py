@@ -520,8 +520,9 @@ def test_new_shapes_simulate(name: str) -> None:
     ds = tumblemc.simulate(shape=name, preset="aluminum", duration_s=0.05)
     assert ds.attrs["status"] == 0 and ds.attrs["failed_steps"] == 0
     assert ds.attrs["hull_perimeter"] == get_shape(name).hull_perimeter
-    # penetration as the stepper measures it: at most the support pad of a curved face
-    assert float(ds["penetration"].max()) <= get_shape(name).pieces[0].support_pad + 1e-15
+    # penetration as the stepper measures it: at most the support pad of a curved face, plus
+    # what the solver's tolerance admits in the gap row (tol x the length unit, 1e-4 m)
+    assert float(ds["penetration"].max()) <= get_shape(name).pieces[0].support_pad + tumblemc.SolverOptions().tol * 1e-4
 
 
 def test_plot_shapes_writes_png(tmp_path) -> None:  # type: ignore[no-untyped-def]

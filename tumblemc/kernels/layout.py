@@ -92,7 +92,10 @@ O_NWORK = 7
 # balances momentum to this fraction of the step's momenta and impulses and its geometric
 # rows to IMPULSE_ACCEPT_LEN (stepper._impulse_consistent; 0: never, such steps fail)
 O_IMPULSE = 8
-N_OPT = 9
+# chord iterations (the factors of an earlier Newton matrix of the same step length) at
+# the start of a step's first attempt, before Newton (newton.solve; 0: never)
+O_CHORD = 9
+N_OPT = 10
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

@@ -17,8 +17,14 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .layout import O_ARMIJO, O_MAXIT, O_MINSTEP, O_TOL, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
+from .layout import O_ARMIJO, O_CHORD, O_MAXIT, O_MINSTEP, O_TOL, S_H, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
 from .residual import N_RS, residual
+
+#: a chord iteration is kept while it divides the residual's max-norm by at least 2
+CHORD_RATE = 0.5
+#: a chord solve that took this many iterations marks its factors stale: the next step
+#: factors afresh (measured on 7 runs: 3 against never and 2, docs/kernel_experiments.md)
+CHORD_STALE = 3
 
 Workspace = namedtuple(
     "Workspace",
@@ -40,6 +46,7 @@ Workspace = namedtuple(
         "lnz",
         "lcnt",
         "y",
+        "lu_h",
     ],
 )
 
@@ -64,6 +71,7 @@ def make_workspace(n: int) -> Workspace:
         lnz=np.zeros((n, n), np.int64),
         lcnt=np.zeros(n, np.int64),
         y=np.zeros(n),
+        lu_h=np.zeros(1),
     )
 
 
@@ -247,6 +255,7 @@ def jtj_shift(J, n, nu, A, cols):  # type: ignore[no-untyped-def]
 def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
     """d = -(J^T J + nu I)^-1 J^T F. False if even that fails."""
     A = ws.A
+    ws.lu_h[0] = 0.0  # A no longer holds a Newton matrix's factors (solve's chord start)
     jtj_shift(J, n, nu, A, ws.piv)  # piv as scratch: lu_factor sets it itself
     if not lu_factor(A, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0):
         return False
@@ -308,7 +317,7 @@ def _line_search(z, slope, theta, prob, ws, trial, opts, mode):  # type: ignore[
 
 
 @jit
-def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-def]
+def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignore[no-untyped-def]
     """Solve ``Phi(z) = 0`` in place from the warm start ``z``.
 
     Parameters
@@ -321,7 +330,7 @@ def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-
     opts : float64[N_OPT]
         ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``.
     out : int64[3]
-        Receives ``(iterations, fallbacks, 0)``.
+        Receives ``(iterations, fallbacks, 0)``; iterations count the chord ones too.
     project : bool
         Keep the complementarity variables >= 0 in the line search (see ``_line_search``).
     smooth0 : float
@@ -330,6 +339,20 @@ def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-
         FB rows (Jacobian-smoothing idea of Chen, Qi & Sun 1998). The smoothed rows have
         no kinks and keep every complementarity pair strictly positive along the path,
         which frees the ECP to move across a face when the touching feature changes.
+    chord : bool
+        Start with up to ``opts[O_CHORD]`` chord iterations (simplified Newton: ``d = -A^-1
+        Phi(z)`` with the factors still in ``ws.A``) if those are the factors of a plain
+        Newton matrix of this step length ``prob.sc[S_H]`` (``ws.lu_h``). An iteration is
+        kept while it divides ``||Phi||_inf`` by at least ``1 / CHORD_RATE``; the first that
+        does not, or the last allowed, hands over to Newton from the last point kept. A
+        chord solve that needs ``CHORD_STALE`` iterations or more leaves the factors marked
+        stale, so the next step's Newton iteration factors afresh. The
+        convergence test is Newton's (``||Phi||_inf <= tol``), so a chord solution is a
+        solution to the same tolerance, not the same bits. Jacobian reuse as in stiff
+        integrators (Hairer & Wanner, Solving ODEs II, IV.8): at 5e-5 s the Newton matrix
+        of the last step is close to this one's, and a step then costs two or three
+        residuals without a Jacobian and substitutions instead of a Jacobian, its LU and a
+        residual.
 
     Returns
     -------
@@ -358,9 +381,49 @@ def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-
     tol = opts[O_TOL]
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
-    theta = residual(z, prob, F, J, work, True, mu_s)
     fallbacks = 0
     it = 0
+    nchord = 0
+    lu_h = ws.lu_h
+    hstep = prob.sc[S_H]
+    if chord and lu_h[0] == hstep and mu_s == 0.0 and opts[O_CHORD] > 0.0:
+        # chord start: the factors still in A are those of the last plain Newton matrix
+        # of this step length (an earlier step's); each iteration costs a residual without
+        # its Jacobian and a substitution. Kept while it contracts by CHORD_RATE; else
+        # Newton goes on from the last point kept.
+        theta = residual(z, prob, F, J, work, False, 0.0)
+        fnorm = 0.0
+        for i in range(n):
+            v = abs(F[i])
+            if v > fnorm:
+                fnorm = v
+        while fnorm <= tol or (nchord < opts[O_CHORD] and fnorm < math.inf):
+            if fnorm <= tol:
+                if nchord >= CHORD_STALE:
+                    lu_h[0] = 0.0
+                out[0] = nchord
+                out[1] = 0
+                return ST_OK, fnorm
+            nchord += 1
+            for i in range(n):
+                d[i] = -F[i]
+            lu_solve(A, piv, d, n, unz, ucnt, lnz, lcnt, y)
+            for i in range(n):
+                zt[i] = z[i] + d[i]
+            th = residual(zt, prob, Ft, J, trial, False, 0.0)
+            fnew = 0.0
+            for i in range(n):
+                v = abs(Ft[i])
+                if v > fnew:
+                    fnew = v
+            if not fnew <= CHORD_RATE * fnorm:
+                break
+            for i in range(n):
+                z[i] = zt[i]
+                F[i] = Ft[i]
+            fnorm = fnew
+            theta = th
+    theta = residual(z, prob, F, J, work, True, mu_s)
     status = ST_MAXIT
     fnorm = 0.0
     while True:
@@ -399,7 +462,10 @@ def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-
         th_new = theta
         # 1. semismooth Newton
         amax = copy_amax(J, A, n)
+        lu_h[0] = 0.0
         if lu_factor(A, piv, n, unz, ucnt, lnz, lcnt, amax):
+            if mu_s == 0.0:
+                lu_h[0] = hstep
             for i in range(n):
                 d[i] = -F[i]
             lu_solve(A, piv, d, n, unz, ucnt, lnz, lcnt, y)
@@ -442,6 +508,6 @@ def solve(z, prob, ws, opts, out, project, smooth0):  # type: ignore[no-untyped-
             status = ST_OK
             break
         theta = residual(z, prob, F, J, work, True, mu_s)
-    out[0] = it
+    out[0] = it + nchord
     out[1] = fallbacks
     return status, fnorm

@@ -921,6 +921,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     tmp3 = scr.tmp3
     qs = scr.qs
     iters = scr.iters
+    # no factors from another run (a batch reuses its buffers): solve's chord start waits
+    # for this run's first Newton matrix
+    ws.lu_h[0] = 0.0
+    ws6.lu_h[0] = 0.0
     zwarm = np.zeros(n)
     zprev = np.zeros(n)
     zprev2 = np.zeros(n)
@@ -1173,7 +1177,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         opts_use = opts  # the snaps can need more than FAST_MAXIT iterations
                     else:
                         opts_use = opts_fast
-                    st, res = solve(z, prob, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth)
+                    # the first attempt may start with chord iterations (SolverOptions.chord_iter)
+                    st, res = solve(z, prob, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth, attempt == 0)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:

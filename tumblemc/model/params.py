@@ -336,6 +336,14 @@ class SolverOptions:
         balances (docs/solver_gaps.md). The energy ledger still judges what is kept; steps
         that converge are not affected. Allowed: 0 (never: such steps fail, the rule before
         2026-11-27) to 1e-3.
+    chord_iter : a step's first attempt starts with up to this many chord iterations: the
+        LU factors of the last plain Newton matrix of the same step length (an earlier
+        step's) applied to the new residual, kept while each divides the residual's max-norm
+        by at least 2, then Newton from the last point kept (Jacobian reuse, as in stiff
+        integrators; ``tumblemc.kernels.newton.solve``). The convergence test is unchanged
+        (``tol``), so the solutions agree to ``tol``, not bit for bit; the iterations
+        recorded count the chord ones. 0: a fresh Jacobian and LU at every iteration (the
+        rule before 2026-11-27, bit for bit). Allowed: 0 to 100.
     """
 
     tol: float = 1e-9
@@ -347,10 +355,11 @@ class SolverOptions:
     accept_tol: float = 1e-6
     landing_work: float = 1e-5
     impulse_accept_tol: float = 1e-6
+    chord_iter: int = 4
 
     def __post_init__(self) -> None:
         check_number("tol", self.tol, _POSITIVE)
-        for name in ("max_iter", "max_substep_depth", "max_failed_steps"):
+        for name in ("max_iter", "max_substep_depth", "max_failed_steps", "chord_iter"):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
                 raise ValueError(f"{name}={v!r} is not allowed (allowed: an integer)")
@@ -362,6 +371,7 @@ class SolverOptions:
         check_number("accept_tol", self.accept_tol, "", 0.0, 1.0)
         check_number("landing_work", self.landing_work, "", 0.0, 1.0)
         check_number("impulse_accept_tol", self.impulse_accept_tol, "", 0.0, 1e-3)
+        check_number("chord_iter", self.chord_iter, "", 0, 100)
         if 0.0 < self.accept_tol < self.tol:
             raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
@@ -379,4 +389,5 @@ class SolverOptions:
         a[L.O_ACCEPT] = self.accept_tol
         a[L.O_NWORK] = self.landing_work
         a[L.O_IMPULSE] = self.impulse_accept_tol
+        a[L.O_CHORD] = self.chord_iter
         return a
