@@ -1040,7 +1040,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             if clear:
                 for i in range(6):
                     z6[i] = z[i]
-                st6, res6 = solve(z6, prob6, ws6, opts, iters, False, 0.0)
+                st6, res6 = solve(z6, prob6, ws6, opts, iters, False, 0.0, True)
                 acc_nit += iters[0]
             if st6 == ST_OK:
                 flight = _flight_clears(state, z6, hc, prm, geo, scr)
