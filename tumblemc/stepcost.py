@@ -62,7 +62,7 @@ def measure(kw: dict[str, Any], duration_s: float, repeats: int, dt: float | Non
     -------
     dict
         ``steps``, ``us_per_step`` (median wall µs per step), ``newton_per_step`` (mean
-        Newton iterations per step), ``ms_per_sim_s`` (wall ms per simulated second) and
+        solver iterations per step: Newton and chord, ``SolverOptions.chord_iter``), ``ms_per_sim_s`` (wall ms per simulated second) and
         ``spread_pct`` ((max - min) / median of the wall times, %).
     """
     spec = prepare(run_inputs(duration_s=duration_s, dt=dt, **kw))
@@ -100,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     dur = 0.2 if a.quick else a.duration_s
     reps = 3 if a.quick else a.repeats
     print(f"tumblemc bench: dt = {DEFAULT_DT} s (default), {reps} runs of {dur} s each, median; one core")
-    print(f"{'shape':12s} {'scenario':22s} {'steps':>7s} {'us/step':>8s} {'Newton/step':>11s} {'ms per sim s':>12s} {'spread %':>8s}")
+    print(f"{'shape':12s} {'scenario':22s} {'steps':>7s} {'us/step':>8s} {'iters/step':>11s} {'ms per sim s':>12s} {'spread %':>8s}")
     for shape in shapes:
         for name, kw in SCENARIOS:
             r = measure(dict(kw, shape=shape), dur, reps)
