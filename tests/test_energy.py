@@ -134,8 +134,8 @@ def test_batch_path_reports_the_same_ledger_and_status() -> None:
             "incline_deg": 0.0,
             "field_mT": 20.0,
             "freq_hz": 1.0,
-            "offset_deg": 27.0,
-            "offset_axis": (0.7071, 0.0, 0.7071),
+            "offset_deg": 30.0,  # reproducer 2a: thrown off the plane by the paper row's energy gain
+            "offset_axis": (0.0, 0.0, 1.0),
         },
     ]
     res = simulate_rows("cuboid", rows, grid)  # type: ignore[arg-type]

@@ -154,12 +154,6 @@ N_ATTEMPTS = len(STRATEGY_GUESS)
 FLIGHT_BEFORE = 6  # a step whose explicit prediction penetrates tries free flight before this attempt
 EARLY_FLIGHT_TURN = 0.05  # ... when the body turns by at most this angle (rad) in the step
 FAST_MAXIT = 15  # iteration limit of the plain and projected strategies
-# the chord start (SolverOptions.chord_iter) only in steps that begin with the body moving
-# less than this per step (scaled lengths: 0.1 x 1e-4 m, i.e. 0.2 m/s at 5e-5 s; tumbling
-# at 10 Hz moves about 0.02 m/s). On the stress study's robots sliding down at metres per
-# second the chord start left 7 of 576 runs invalid (a fresh Newton matrix: 0; Newton at
-# tol / 2, the same scheme on another chaotic path: 2); with this limit 3 (docs/chord.md)
-CHORD_TRAVEL = 0.1
 SMOOTH_MAXIT = 300  # iteration limit of the smoothing continuation
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 RECENTRE_AT = 100.0  # distance (scaled length, 1 cm) from the origin along t or o beyond which _recentre shifts it
@@ -1038,8 +1032,6 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             quat_to_rot(qs, QS_Q, R, 0)
             for i in range(3):
                 tmp3[i] = state[i] + hc * (state[7 + i] + hc * sc[S_FEXT + i] / prm[P_MASS])
-            # the chord start only while the body moves less than CHORD_TRAVEL per step
-            calm = _norm3(state[7:10]) * hc <= CHORD_TRAVEL
             clear = True
             for kp in range(K):
                 if lowest_point(tmp3, R, prm, geo, kp, tmp, LOW_TOL, hts) < -FLIGHT_PRECHECK:
@@ -1048,7 +1040,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             if clear:
                 for i in range(6):
                     z6[i] = z[i]
-                st6, res6 = solve(z6, prob6, ws6, opts, iters, False, 0.0, calm)
+                st6, res6 = solve(z6, prob6, ws6, opts, iters, False, 0.0, True)
                 acc_nit += iters[0]
             if st6 == ST_OK:
                 flight = _flight_clears(state, z6, hc, prm, geo, scr)
@@ -1186,7 +1178,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     else:
                         opts_use = opts_fast
                     # the first attempt may start with chord iterations (SolverOptions.chord_iter)
-                    st, res = solve(z, prob, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth, attempt == 0 and calm)
+                    st, res = solve(z, prob, ws, opts_use, iters, STRATEGY_PROJECT[attempt], smooth, attempt == 0)
                     acc_nit += iters[0]
                     acc_fb += iters[1] + (1 if attempt > 0 else 0)
                     if st == ST_OK:

@@ -340,9 +340,7 @@ class SolverOptions:
         LU factors of the last plain Newton matrix of the same step length (an earlier
         step's) applied to the new residual, kept while each divides the residual's max-norm
         by at least 2, then Newton from the last point kept (Jacobian reuse, as in stiff
-        integrators; ``tumblemc.kernels.newton.solve``), in steps that begin with the body
-        moving less than 0.1 length units (1e-5 m) per step (``stepper.CHORD_TRAVEL``: robots
-        sliding down at metres per second keep a fresh Newton matrix, docs/chord.md). The convergence test is unchanged
+        integrators; ``tumblemc.kernels.newton.solve``). The convergence test is unchanged
         (``tol``), so the solutions agree to ``tol``, not bit for bit; the iterations
         recorded count the chord ones. 0: a fresh Jacobian and LU at every iteration (the
         rule before 2026-11-27, bit for bit). Allowed: 0 to 100.
