@@ -68,7 +68,6 @@ def test_chord_start_solves_the_next_step_without_a_jacobian(seed: int) -> None:
     st_n, zn, _ = newton(z, prob2, OPTS)
     assert st_n == L.ST_OK
     assert np.abs(zc - zn).max() <= 1e-8 * (1.0 + np.abs(zn).max())
-    assert not np.array_equal(zc, zn) or out[0] > 0  # (a different method: equal bits are not required)
 
 
 def test_factors_of_another_step_length_are_not_used() -> None:

@@ -23,7 +23,7 @@ from .residual import N_RS, residual
 #: a chord iteration is kept while it divides the residual's max-norm by at least 2
 CHORD_RATE = 0.5
 #: a chord solve that took this many iterations marks its factors stale: the next step
-#: factors afresh (measured on 7 runs: 3 against never and 2, docs/kernel_experiments.md)
+#: factors afresh (measured on 7 runs: 3 against never and 2, docs/chord.md)
 CHORD_STALE = 3
 
 Workspace = namedtuple(
@@ -391,7 +391,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         # of this step length (an earlier step's); each iteration costs a residual without
         # its Jacobian and a substitution. Kept while it contracts by CHORD_RATE; else
         # Newton goes on from the last point kept.
-        theta = residual(z, prob, F, J, work, False, 0.0)
+        residual(z, prob, F, J, work, False, 0.0)
         fnorm = 0.0
         for i in range(n):
             v = abs(F[i])
@@ -410,7 +410,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
             lu_solve(A, piv, d, n, unz, ucnt, lnz, lcnt, y)
             for i in range(n):
                 zt[i] = z[i] + d[i]
-            th = residual(zt, prob, Ft, J, trial, False, 0.0)
+            residual(zt, prob, Ft, J, trial, False, 0.0)
             fnew = 0.0
             for i in range(n):
                 v = abs(Ft[i])
@@ -422,7 +422,6 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
                 z[i] = zt[i]
                 F[i] = Ft[i]
             fnorm = fnew
-            theta = th
     theta = residual(z, prob, F, J, work, True, mu_s)
     status = ST_MAXIT
     fnorm = 0.0
