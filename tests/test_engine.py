@@ -365,10 +365,10 @@ def test_a_batch_that_raises_is_recorded_row_by_row(monkeypatch: pytest.MonkeyPa
 
     real = eng.simulate_rows
 
-    def flaky(shape: str, rows: Any, grid: TimeGrid) -> Any:
+    def flaky(shape: str, rows: Any, grid: TimeGrid, full: Any = None) -> Any:
         if any(r.get("mu") == 0.123 for r in rows):
             raise RuntimeError("boom")
-        return real(shape, rows, grid)
+        return real(shape, rows, grid, full)
 
     monkeypatch.setattr(eng, "simulate_rows", flaky)
     rows = ({"preset": "paper", "freq_hz": 10.0, "mu": 0.3}, {"preset": "paper", "freq_hz": 10.0, "mu": 0.123})

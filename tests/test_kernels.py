@@ -780,7 +780,7 @@ def test_run_returns_positions_in_the_callers_frame_after_recentring() -> None:
     rec = empty_record(spec.n_steps, spec.n_steps)
     area0, resting = initial_contact(spec)
     start = Start(spec.state0.copy(), 0.0, area0, resting)
-    status, failed = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, spec.n_steps, spec.n_steps), rec, buf)
+    status, failed, _ = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, spec.n_steps, spec.n_steps), rec, buf)
     assert status == L.ST_OK and failed == 0
     x_end = rec[-1, L.R_X : L.R_X + 3]
     along = max(abs(x_end @ spec.prm[L.P_T : L.P_T + 3]), abs(x_end @ spec.prm[L.P_O : L.P_O + 3]))

@@ -47,7 +47,7 @@ def test_saved_landing_step_converges(case: str) -> None:
     state = d[f"{case}_state"].copy()
     rec = empty_record(1, 1)
     start = Start(state, float(d[f"{case}_t"]), float(d[f"{case}_area"]), bool(d[f"{case}_mode"] > 0))
-    status, failed = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, 1, 1), rec, buf)
+    status, failed, _ = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, 1, 1), rec, buf)
     assert status == L.ST_OK and failed == 0
     assert rec[1, L.R_RES] <= spec.solver.tol
     assert rec[1, L.R_LN] > 0.0  # it landed

@@ -31,7 +31,7 @@ SMALL_STEP = {**FAST_LANDINGS.SMALL_STEP, **SNAP_HOP}
 
 
 def _step(case: str, run_kw: dict[str, Any], solver: tumblemc.SolverOptions, dt_factor: float = 1.0) -> tuple[Any, np.ndarray, Start, Any]:
-    """One step of length ``dt_factor x dt`` from the saved start of ``case``: (status, failed), record row, end, spec."""
+    """One step of length ``dt_factor x dt`` from the saved start of ``case``: (status, failed, t_decided), record row, end, spec."""
     d = np.load(DATA)
     spec = prepare(run_inputs(**run_kw, solver=solver))
     buf = make_buffers(d[f"{case}_z"].shape[0])
@@ -44,7 +44,7 @@ def _step(case: str, run_kw: dict[str, Any], solver: tumblemc.SolverOptions, dt_
 
 def _one_step(case: str, landing_work: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Record row, end state and last solution of the saved step; and the refusal threshold."""
-    (status, failed), row, start, (spec, buf) = _step(case, RUN_122, tumblemc.SolverOptions(landing_work=landing_work))
+    (status, failed, _), row, start, (spec, buf) = _step(case, RUN_122, tumblemc.SolverOptions(landing_work=landing_work))
     assert status == L.ST_OK and failed == 0
     scale = spec.prm[L.P_MASS] * spec.prm[L.P_G] + field_work_bound(spec.prm, spec.h)
     return row, start.state, buf.z.copy(), tumblemc.SolverOptions().landing_work * scale
@@ -91,7 +91,7 @@ def test_landing_work_out_of_range_names_the_field(bad: float) -> None:
 
 def test_slow_landing_converges_at_a_longer_step() -> None:
     """The saved slow landing (reproducer 1 at dt = 5e-6 s) is solvable: at 1.5 dt it converges."""
-    (status, failed), row, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(), 1.5)
+    (status, failed, _), row, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(), 1.5)
     assert status == L.ST_OK and failed == 0 and row[L.R_RES] <= tumblemc.SolverOptions().tol
 
 
@@ -101,23 +101,23 @@ def test_slow_landing_at_a_small_step_is_kept_loose_not_failed() -> None:
     No strategy solves it to ``tol`` at any depth; its best attempt balances momentum to 2e-7
     of the impact. With the rule off (0) the step fails, as before 2026-11-27.
     """
-    (status, failed), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
+    (status, failed, _), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
     assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 1
     assert row[L.R_IMPULSE] == 1  # counted apart: kept by the impulse rule, not by accept_tol
     assert row[L.R_RES] > 0.1  # not converged in the absolute sense: the record says so
     assert row[L.R_SUB] == tumblemc.SolverOptions().max_substep_depth  # it got there at the smallest sub-step
-    (status, failed), row0, end0, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=0.0))
+    (status, failed, _), row0, end0, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=0.0))
     assert failed == 1 and row0[L.R_LOOSE] == 0 and row0[L.R_IMPULSE] == 0
     assert np.array_equal(end.state, end0.state)  # the same attempt, kept either way: only the label differs
     # the edge stops: the downward speed drops from 12 to below 1 (scaled), the ECP at the plane
     assert end.state[9] > -1.0 and row[L.R_PEN] < 1e-3
     # the scale matters: at 1e-8 of the step's momenta (the attempt balances them to 1.7e-7) it fails
-    (status, failed), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=1e-8))
+    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=1e-8))
     assert failed == 1
     # a study stops a run at its first failed step (max_failed_steps = 1): kept loose, it runs on
-    (status, failed), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1))
+    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1))
     assert status == L.ST_OK and failed == 0
-    (status, failed), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1, impulse_accept_tol=0.0))
+    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1, impulse_accept_tol=0.0))
     assert status == L.ST_STOPPED
 
 

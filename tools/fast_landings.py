@@ -60,7 +60,7 @@ def main() -> None:
         area0, resting = initial_contact(sp)
         start = Start(sp.state0.copy(), 0.0, area0, resting)
         rec = empty_record(k, k)
-        status, failed = run(Model(sp.prm, sp.geo), sp.solver.as_array(), start, Clock(sp.h, k, k), rec, buf)
+        status, failed, _ = run(Model(sp.prm, sp.geo), sp.solver.as_array(), start, Clock(sp.h, k, k), rec, buf)
         assert status == L.ST_OK and failed == 0
         out[f"{name}_state"] = start.state
         out[f"{name}_z"] = buf.z.copy()

@@ -174,6 +174,8 @@ OUTCOMES: dict[str, type] = {
     "field_work_bound": np.float64,
     "lateral_drift": np.float64,
     "heading_change_deg": np.float64,
+    "decided_time": np.float64,
+    "decided_early": np.int8,
 }
 
 
@@ -224,6 +226,22 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "heading_change_deg": {
         "units": "degree",
         "long_name": "turn of the body x (tumbling) axis about the plane normal over the run, folded to (-90, 90]",
+    },
+    "decided_time": {
+        "units": "s",
+        "long_name": (
+            "time from the start at which the energy bound (tumblemc.kernels.decide) decided failure: progress so far plus the most"
+            " the run could still climb fell short of success; NaN if it never did"
+        ),
+    },
+    "decided_early": {
+        "units": "1",
+        "long_name": (
+            "run stopped at decided_time (early_decision): verdict failure; progress_ratio, progress, mean_speed and the"
+            " counters are those up to the decision (censored)"
+        ),
+        "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "no yes",
     },
     "error": {"long_name": "why the run could not start (empty when it ran)"},
 }

@@ -19,6 +19,9 @@ from .layout import (
     L_GAIN,
     L_KE,
     L_POTMAX,
+    O_DECIDE,
+    O_DECIDE_NEED,
+    O_DECIDE_STEP,
     P_FIELD_ON,
     P_G,
     P_MASS,
@@ -35,6 +38,7 @@ from .layout import (
     R_SUB,
     R_T,
     R_X,
+    ST_DECIDED,
     ST_OK,
     ST_STOPPED,
 )
@@ -55,7 +59,10 @@ OUT_EREF = 10  # the energy scale of its tolerance (model/energy.py: energy_refe
 OUT_LATERAL = 11  # lateral drift of the CM along the plane tangent t over the run (scaled length)
 OUT_HEADING = 12  # heading change, degrees (heading_change below)
 OUT_IMPULSE = 13  # steps kept by impulse_accept_tol alone, total (a subset of OUT_LOOSE)
-N_OUT = 14
+OUT_DECIDED = 14  # time (scaled, from the run's start) at which the energy bound decided failure; NaN: never
+OUT_STOPPED = 15  # 1: the run stopped there (decided early; progress and window up to then)
+OUT_STEPS = 16  # steps taken
+N_OUT = 17
 
 # ---- run status (also the engine's ``status`` flag values) -------------------------
 BATCH_OK = 0  # finished, every step converged
@@ -65,10 +72,10 @@ BATCH_ERROR = 3  # never ran: invalid parameters (set by the Python layer)
 BATCH_ENERGY_GAIN = 4  # finished, every step converged, but the ledger's numerical energy gain is above tolerance
 
 
-Batch = namedtuple("Batch", ["prms", "states0", "hs", "area0", "touch0"])
+Batch = namedtuple("Batch", ["prms", "states0", "hs", "area0", "touch0", "need", "decide"])
 Batch.__doc__ = """Runs of one shape on one time grid, one row each: ``prms`` float64[B, N_PRM], ``states0``
-float64[B, 13], ``hs`` float64[B], ``area0`` float64[B], ``touch0`` bool[B] (see
-:func:`run_batch`)."""
+float64[B, 13], ``hs`` float64[B], ``area0`` float64[B], ``touch0`` bool[B], ``need``
+float64[B] and ``decide`` int64[B] (see :func:`run_batch`)."""
 
 
 @jit
@@ -111,6 +118,11 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         Adhering area at ``t = 0`` (scaled).
     touch0 : bool[B]
         Whether each robot starts touching the plane.
+    need : float64[B]
+        Uphill progress over the measurement window that success needs (scaled length).
+    decide : int64[B]
+        Early decision per run (``opts[O_DECIDE]`` of :func:`~.stepper.run`): 0 off, 1 note
+        when the energy bound decides failure (``OUT_DECIDED``), 2 also stop there.
     grid : (n_steps, record_every, i0_row), ints
         Steps per run, recording stride and the record row that starts the measurement
         window (``i0_row * record_every`` steps after the start).
@@ -126,9 +138,11 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
     -----
     Each run is exactly :func:`tumblemc.kernels.stepper.run` from the same initial data
     as :func:`tumblemc.simulate`; nothing is shared between runs except workspaces, so a
-    run's result does not depend on its batch or its position in it.
+    run's result does not depend on its batch or its position in it. A run stopped by an
+    early decision reports its progress, window, counters and energy ledger up to the
+    decision (``OUT_STOPPED`` = 1).
     """
-    prms, states0, hs, area0, touch0 = batch
+    prms, states0, hs, area0, touch0, need, decide = batch
     n_steps, record_every, i0_row = grid
     B = prms.shape[0]
     rows = rec.shape[0]
@@ -136,14 +150,18 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
     z6 = buf.z6
     zsave = buf.zsave
     state = np.zeros(13)
+    opts_b = opts.copy()
+    opts_b[O_DECIDE_STEP] = i0_row * record_every
     for b in range(B):
+        opts_b[O_DECIDE] = decide[b]
+        opts_b[O_DECIDE_NEED] = need[b]
         rec[:, :] = 0.0
         z[:] = 0.0
         z6[:] = 0.0
         zsave[:] = 0.0
         state[:] = states0[b]
-        status, failed = run(
-            Model(prms[b], geo), opts, Start(state, 0.0, area0[b], touch0[b]), Clock(hs[b], n_steps, record_every), rec, buf
+        status, failed, t_decided = run(
+            Model(prms[b], geo), opts_b, Start(state, 0.0, area0[b], touch0[b]), Clock(hs[b], n_steps, record_every), rec, buf
         )
         prog = 0.0
         for i in range(3):
@@ -171,7 +189,7 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
             code = BATCH_FAILED_STEPS
             prog = np.nan
-        elif status != ST_OK or not np.isfinite(prog):
+        elif (status != ST_OK and status != ST_DECIDED) or not np.isfinite(prog):
             code = BATCH_NONFINITE  # the stepper stops otherwise only on a non-finite state
         elif failed > 0:
             code = BATCH_FAILED_STEPS
@@ -196,6 +214,9 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
             lat += prms[b, P_T + i] * (rec[rows - 1, R_X + i] - rec[0, R_X + i])
         out[b, OUT_LATERAL] = lat
         out[b, OUT_HEADING] = heading_change(rec[rows - 1], R_Q, prms[b])
+        out[b, OUT_DECIDED] = t_decided
+        out[b, OUT_STOPPED] = 1.0 if status == ST_DECIDED else 0.0
+        out[b, OUT_STEPS] = round(t_run / hs[b]) if status == ST_DECIDED else n_steps
     return 0
 
 

@@ -95,7 +95,12 @@ O_IMPULSE = 8
 # chord iterations (the factors of an earlier Newton matrix of the same step length) at
 # the start of a step's first attempt, before Newton (newton.solve; 0: never)
 O_CHORD = 9
-N_OPT = 10
+# early decision (stepper.run, kernels/decide.py): 0 off, 1 note the first time the energy
+# bound decides the run's verdict (failure), 2 also stop the run there
+O_DECIDE = 10
+O_DECIDE_NEED = 11  # uphill progress over the window that success needs (scaled length)
+O_DECIDE_STEP = 12  # the step that starts the measurement window
+N_OPT = 13
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0
@@ -103,6 +108,7 @@ ST_MAXIT = 1
 ST_LINESEARCH = 2
 ST_NAN = 3
 ST_STOPPED = 4  # the run stopped after opts[O_MAXFAIL] failed steps
+ST_DECIDED = 5  # the run stopped once its verdict could no longer change (opts[O_DECIDE] == 2)
 
 # ---- record columns (one row per recorded instant) ----------------------------------
 R_T = 0

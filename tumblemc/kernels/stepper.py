@@ -12,6 +12,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit, jit_alloc
+from .decide import DECIDE_EVERY, climb_bound
 from .field import field_dir, field_work_bound, program_field
 from .geometry import CG_G, N_CG, N_QS, QS_Q, Geometry, constraint_eval, cross, quat_step, quat_to_rot
 from .layout import (
@@ -30,6 +31,9 @@ from .layout import (
     N_REC,
     N_SC,
     O_ACCEPT,
+    O_DECIDE,
+    O_DECIDE_NEED,
+    O_DECIDE_STEP,
     O_IMPULSE,
     O_MAXDEPTH,
     O_MAXFAIL,
@@ -55,6 +59,7 @@ from .layout import (
     P_T,
     P_TORQ,
     P_TORQUE_END,
+    P_U,
     R_ADH,
     R_AREA,
     R_ECP,
@@ -79,6 +84,7 @@ from .layout import (
     S_FEXT,
     S_H,
     S_TM,
+    ST_DECIDED,
     ST_NAN,
     ST_OK,
     ST_STOPPED,
@@ -836,7 +842,7 @@ def _recentre_undo(state, z, xoff, pstart):  # type: ignore[no-untyped-def]
 
 @jit_alloc
 def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
-    """Integrate ``n_steps`` steps; returns ``(status, failed_steps)``.
+    """Integrate ``n_steps`` steps; returns ``(status, failed_steps, t_decided)``.
 
     Parameters
     ----------
@@ -878,6 +884,14 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     of the sub-steps kept; its Newton iterations and fallbacks count every attempt.
     Returns ``ST_NAN`` if the state becomes non-finite, ``ST_STOPPED`` after
     ``opts[O_MAXFAIL]`` failed steps when that is > 0 (the rest of the record is unwritten).
+
+    Early decision (``opts[O_DECIDE]`` > 0): from the window's start (step
+    ``opts[O_DECIDE_STEP]``), every ``DECIDE_EVERY`` steps, the uphill progress since then
+    plus :func:`~.decide.climb_bound` is compared with ``opts[O_DECIDE_NEED]``; ``t_decided``
+    is the first time it falls short (NaN if never). With ``opts[O_DECIDE] == 2`` the run
+    stops there with ``ST_DECIDED``: the last record row holds that state and the counters
+    since the previous row, the rows between are unwritten. The check reads the state and
+    never changes it, so a run's arithmetic up to ``t_decided`` is the same in every mode.
     """
     prm = model.prm
     geo = model.geo
@@ -988,6 +1002,17 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     wn_ref = 0.0  # the same, summed over the refinement's sub-steps so far
     lw = np.zeros(N_LW)
     led[L_KE] = kinetic_energy(state, prm, lw)
+    # early decision (opts[O_DECIDE], kernels/decide.py): the window's start position, the
+    # energy scale without the potential released, and the first time the bound decided
+    decide = int(opts[O_DECIDE])
+    decide_need = opts[O_DECIDE_NEED]
+    decide_step = int(opts[O_DECIDE_STEP])
+    t_end = t0 + n_steps * h
+    eref0 = led[L_KE] + prm[P_MASS] * prm[P_G] + field_work_bound(prm, n_steps * h)
+    xw = np.zeros(3)
+    for i in range(3):
+        xw[i] = state[i]
+    t_decided = math.nan
     row = 0
     _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0, 0), led, xoff)
     status = ST_OK
@@ -1374,9 +1399,29 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             acc_sub = 0
             acc_pen = 0.0
             acc_fail = 0
+        if decide > 0 and step + 1 >= decide_step and step < n_steps - 1 and math.isnan(t_decided):
+            if step + 1 == decide_step:
+                for i in range(3):
+                    xw[i] = state[i] + xoff[i]
+            elif (step + 1 - decide_step) % DECIDE_EVERY == 0:
+                prog = 0.0
+                for i in range(3):
+                    tmp[i] = state[i] + xoff[i]
+                    prog += prm[P_U + i] * (tmp[i] - xw[i])
+                if prog + climb_bound(prm, tmp, led, t, t_end, eref0) < decide_need:
+                    t_decided = t
+                    if decide == 2:
+                        # the last record row holds the state at the decision (rows between: unwritten)
+                        _record(
+                            rec, rec.shape[0] - 1, t, state, z, adh,
+                            (mode, area_prev, lnsum, slip, ecp_off),
+                            (acc_nit, acc_res, acc_fb, acc_sub, acc_pen, acc_fail, acc_loose, acc_impulse), led, xoff,
+                        )  # fmt: skip
+                        status = ST_DECIDED
+                        break
     # the final state and the last solution's positions in the caller's frame
     _recentre_undo(state, z, xoff, geo.pstart)
-    return status, failed_total
+    return status, failed_total, t_decided
 
 
 @jit

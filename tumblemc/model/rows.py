@@ -69,7 +69,10 @@ class TimeGrid:
     speed is measured (as :func:`tumblemc.summarize`); dt : s (None: the default);
     torque : ``"start"`` or ``"end"``; success_ratio : progress-ratio threshold of
     ``climbed``; max_failed_steps : stop a run after that many failed steps (0: never);
-    its outcome is then NaN with status ``failed_steps``.
+    its outcome is then NaN with status ``failed_steps``; early_decision : stop a run once
+    its verdict can only be failure (:mod:`tumblemc.kernels.decide`): ``decided_early`` is
+    then 1, ``climbed`` 0 and the progress ratio is the one up to the decision (censored).
+    Every run reports ``decided_time``, when the bound decided it (NaN: never).
     """
 
     periods: float = 2.0
@@ -79,6 +82,7 @@ class TimeGrid:
     rotation: str = "momentum"
     success_ratio: float = 0.5
     max_failed_steps: int = 0  # 0: never stop a run early (as simulate); studies use 1
+    early_decision: bool = False  # stop a run once the energy bound decides failure (kernels/decide.py)
 
 
 def record_stride(n_steps: int, i0: int) -> tuple[int, int]:
@@ -87,7 +91,7 @@ def record_stride(n_steps: int, i0: int) -> tuple[int, int]:
     return k, (i0 // k if i0 > 0 else 0)
 
 
-def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) -> dict[str, np.ndarray]:
+def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid, full: Sequence[bool] | None = None) -> dict[str, np.ndarray]:
     """Simulate one run per row of ``rows`` through the batch kernel.
 
     Parameters
@@ -99,6 +103,10 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
         ``incline_deg``, ``field_mT``, ``freq_hz`` and any parameter overrides. Rows that
         share ``freq_hz`` share the time grid; rows are grouped by it internally.
     grid : TimeGrid
+    full : sequence of bool, optional
+        Rows simulated to the end even with ``grid.early_decision`` (the audited ones: a
+        study's dt-check runs); their ``decided_time`` says when the bound would have
+        stopped them.
 
     Returns
     -------
@@ -120,6 +128,7 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
         "field_work_bound",
         "lateral_drift",
         "heading_change_deg",
+        "decided_time",
     ):
         res[k][:] = np.nan
     res["status"][:] = KB.BATCH_ERROR
@@ -162,7 +171,14 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
         touch0 = np.array([t for _, t in contact])
         out = np.zeros((len(ss), KB.N_OUT))
         rec = empty_record(n_steps, stride)
-        batch = KB.Batch(prms=prms, states0=states, hs=hs, area0=area0, touch0=touch0)
+        i0 = i0_row * stride
+        # the uphill progress over the window that success needs (scaled length)
+        need = np.array(
+            [grid.success_ratio * s.shape.hull_perimeter * s.freq_hz * (n_steps - i0) * s.h * s.units.time / s.units.length for s in ss]
+        )
+        stop = [grid.early_decision and not (full is not None and full[i]) for i in idx]
+        decide = np.array([2 if st else 1 for st in stop], dtype=np.int64)
+        batch = KB.Batch(prms=prms, states0=states, hs=hs, area0=area0, touch0=touch0, need=need, decide=decide)
         KB.run_batch(geo, batch, (n_steps, stride, i0_row), solver.as_array(), buf, rec, out)
         for j, (i, s) in enumerate(zip(idx, ss, strict=True)):
             o = out[j]
@@ -178,8 +194,11 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid) ->
             res["progress"][i] = progress
             res["mean_speed"][i] = speed
             res["progress_ratio"][i] = ratio
-            res["climbed"][i] = int(climbed(ratio, status, grid.success_ratio))
-            res["newton_iterations"][i] = o[KB.OUT_NIT] / s.n_steps
+            early = o[KB.OUT_STOPPED] > 0.5
+            res["climbed"][i] = 0 if early else int(climbed(ratio, status, grid.success_ratio))
+            res["decided_early"][i] = int(early)
+            res["decided_time"][i] = o[KB.OUT_DECIDED] * s.units.time
+            res["newton_iterations"][i] = o[KB.OUT_NIT] / o[KB.OUT_STEPS]
             res["substeps"][i] = int(o[KB.OUT_SUB])
             res["fallbacks"][i] = int(o[KB.OUT_FALLBACK])
             res["failed_steps"][i] = int(o[KB.OUT_FAILED])

@@ -317,7 +317,7 @@ def run_spec(spec: RunSpec, buffers: Buffers | None = None) -> tuple[np.ndarray,
     area0, resting = initial_contact(spec)
     start = Start(state=spec.state0.copy(), t0=0.0, area0=area0, touch0=resting)
     clock = Clock(h=spec.h, n_steps=spec.n_steps, record_every=spec.record_every)
-    status, failed = run(Model(prm=spec.prm, geo=geo), spec.solver.as_array(), start, clock, rec, buf)
+    status, failed, _ = run(Model(prm=spec.prm, geo=geo), spec.solver.as_array(), start, clock, rec, buf)
     return rec, int(status), int(failed)
 
 

@@ -95,6 +95,31 @@ def _check_pos(check: dict[str, np.ndarray], check_idx: np.ndarray) -> np.ndarra
     return pos
 
 
+def _audit(runs: xr.Dataset, check_idx: np.ndarray, check: dict[str, np.ndarray], pos: np.ndarray) -> dict[str, int]:
+    """The early decision's audit over the check runs simulated to the end.
+
+    At dt and at the finer dt: how many the energy bound decided, and how many of those
+    nevertheless climbed (must be 0).
+    """
+    out = {}
+    for tag, decided, climbed_, status, early in (
+        (
+            "dt",
+            runs["decided_time"].values[check_idx],
+            runs["climbed"].values[check_idx],
+            runs["status"].values[check_idx],
+            runs["decided_early"].values[check_idx],
+        ),
+        ("fine", check["decided_time"][pos], check["climbed"][pos], check["status"][pos], np.zeros(len(pos), np.int8)),
+    ):
+        full = (early == 0) & (status == 0)
+        hit = full & np.isfinite(decided)
+        out[f"early_decision_audit_{tag}_runs"] = int(np.count_nonzero(full))
+        out[f"early_decision_audit_{tag}_decided"] = int(np.count_nonzero(hit))
+        out[f"early_decision_audit_{tag}_climbed"] = int(np.count_nonzero(hit & (climbed_ == 1)))
+    return out
+
+
 def assemble_runs(
     cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
 ) -> xr.Dataset:
@@ -118,28 +143,34 @@ def assemble_runs(
         agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
         runs["check_agree"].attrs.update(GRID_CHECK_VARIABLES["check_agree"])
-        diff = fine_ratio - runs["progress_ratio"].values[check_idx]
+        # a run stopped by an early decision has a censored ratio: its verdict is compared, not
+        # its ratio (the planned check runs run to the end; an adaptive study's may not)
+        censored = runs["decided_early"].values[check_idx] == 1
+        diff = np.where(censored, np.nan, fine_ratio - runs["progress_ratio"].values[check_idx])
         d = np.abs(diff)
         tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(fine_ratio)
         with np.errstate(invalid="ignore"):
-            within = np.where(compared, (d <= tol).astype(np.int8), -1).astype(np.int8)
+            within = np.where(compared & ~censored, (d <= tol).astype(np.int8), -1).astype(np.int8)
         runs["check_ratio_diff"] = ("check", diff)
         runs["check_ratio_diff"].attrs.update(GRID_CHECK_VARIABLES["check_ratio_diff"])
         runs["check_ratio_within_tol"] = ("check", within)
         runs["check_ratio_within_tol"].attrs.update(GRID_CHECK_VARIABLES["check_ratio_within_tol"])
         runs.attrs["check_ratio_abs_tol"] = cfg.check.ratio_abs_tol
         runs.attrs["check_ratio_rel_tol"] = cfg.check.ratio_rel_tol
-        runs.attrs["check_within_tol_rate"] = float((within[compared] == 1).mean()) if compared.any() else math.nan
+        runs.attrs["check_within_tol_rate"] = float((within[within >= 0] == 1).mean()) if (within >= 0).any() else math.nan
         runs.attrs["check_n_outside_tol"] = int(np.count_nonzero(within == 0))
         runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
         runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
         runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
         runs.attrs["check_max_abs_ratio_diff"] = float(np.nanmax(d)) if np.isfinite(d).any() else math.nan
+        runs.attrs.update(_audit(runs, check_idx, check, pos))
         runs = runs.assign_coords(check=np.arange(len(check_idx)))
         runs["check"].attrs.update(GRID_CHECK_VARIABLES["check"])
     if "run" in runs.coords:
         runs["run"].attrs.update(GRID_CHECK_VARIABLES["run"])
     runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
+    runs.attrs["early_decision"] = int(cfg.early_decision)
+    runs.attrs["decided_early_runs"] = int(np.count_nonzero(runs["decided_early"].values == 1))
     runs.attrs["dt"] = study_dt(cfg)
     return runs
 

@@ -38,6 +38,10 @@ dt                   time step, s (default: the simulator's ``DEFAULT_DT``)
 torque               ``"start"`` (default) or ``"end"``
 rotation             ``"momentum"`` (default) or ``"paper"`` (the rotational row, MODEL.md)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
+early_decision       ``true`` (default): stop a run once an energy bound shows that it can
+                     no longer reach ``success_ratio`` (tumblemc.kernels.decide); its
+                     ``decided_early`` flag is set and its ratio is censored there. The
+                     dt-check runs always run to the end (they audit the bound)
 samples*             runs per cell, integer >= 1 (with ``precision``: the most per cell)
 precision            adaptive sampling (grid mode, ``mc``): each cell stops at the first
                      run count at which the half-width of its anytime-valid interval
@@ -236,6 +240,7 @@ class StudyConfig:
     torque: str = "start"
     rotation: str = "momentum"
     success_ratio: float = 0.5
+    early_decision: bool = True
     sampler: str = "mc"
     ci: str = "wilson"
     ci_level: float = 0.95
@@ -301,7 +306,7 @@ _MODES: dict[str, _Mode] = {
 
 _COMMON_KEYS = (
     *("name", "description", "mode", "shapes", "presets", "field_mT", "freq_hz", "periods", "transient_periods", "dt"),
-    *("torque", "rotation", "success_ratio", "samples", "precision", "sampler", "seed", "ci", "ci_level"),
+    *("torque", "rotation", "success_ratio", "early_decision", "samples", "precision", "sampler", "seed", "ci", "ci_level"),
     *("check", "execution", "uncertain", "field"),
 )
 
@@ -397,6 +402,9 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     torque = check_choice("torque", d.get("torque", "start"), TORQUES)
     rotation = check_choice("rotation", d.get("rotation", "momentum"), ROTATIONS)
     success_ratio = check_num("success_ratio", d.get("success_ratio", 0.5), 0.0, 1.0, lo_open=True)
+    early_decision = d.get("early_decision", True)
+    if not isinstance(early_decision, bool):
+        raise config_error("early_decision", early_decision, "is not a boolean", "true or false")
     samples = check_int("samples", req("samples", f"an integer in [1, {MAX_SAMPLES}]"), 1, MAX_SAMPLES)
     sampler = check_choice("sampler", d.get("sampler", "mc"), SAMPLERS)
     seed = check_int("seed", req("seed", "an integer >= 0"), 0, 2**63 - 1)
@@ -455,6 +463,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
         torque=torque,
         rotation=rotation,
         success_ratio=success_ratio,
+        early_decision=bool(early_decision),
         sampler=sampler,
         ci=ci,
         ci_level=ci_level,

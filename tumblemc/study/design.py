@@ -276,7 +276,8 @@ def study_dt(cfg: StudyConfig) -> float:
 def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
     """The study's time grid of every run (``fine``: at ``dt / [check].dt_factor``, for the numerical check).
 
-    A run stops at its first failed step (``max_failed_steps=1``).
+    A run stops at its first failed step (``max_failed_steps=1``), and once its verdict
+    can only be failure when ``cfg.early_decision`` (not at the finer dt).
     """
     dt = study_dt(cfg)
     if fine:
@@ -291,6 +292,7 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
         rotation=cfg.rotation,
         success_ratio=cfg.success_ratio,
         max_failed_steps=1,
+        early_decision=cfg.early_decision and not fine,
     )
 
 

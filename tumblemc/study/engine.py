@@ -83,6 +83,7 @@ class Task:
     tol: float = 0.0
     inclines: tuple[float, ...] = ()
     fine: TimeGrid | None = None
+    full: tuple[bool, ...] = ()  # rows run to the end despite grid.early_decision (the dt-check runs: the audit)
 
 
 def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
@@ -96,7 +97,11 @@ def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     except Exception:  # noqa: BLE001 - any failure of a run is data, not a crash
         if len(task.run) == 1:
             return _error_result(task)
-        parts = [execute_task(dataclasses.replace(task, run=(r,), rows=(row,))) for r, row in zip(task.run, task.rows, strict=True)]
+        full = task.full or (False,) * len(task.run)
+        parts = [
+            execute_task(dataclasses.replace(task, run=(r,), rows=(row,), full=(f,) if task.full else ()))
+            for r, row, f in zip(task.run, task.rows, full, strict=True)
+        ]
         return task.kind, np.asarray(task.run, dtype=np.int64), {k: np.concatenate([p[2][k] for p in parts]) for k in parts[0][2]}
 
 
@@ -120,7 +125,7 @@ def _error_result(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
 def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     run = np.asarray(task.run, dtype=np.int64)
     if task.mode == "grid":
-        return task.kind, run, simulate_rows(task.shape, task.rows, task.grid)
+        return task.kind, run, simulate_rows(task.shape, task.rows, task.grid, task.full or None)
     if task.kind == "main":
         return task.kind, run, bisect_rows(task.shape, task.rows, task.grid, task.lo, task.hi, task.tol)
     return task.kind, run, _critical_check(task)
@@ -172,6 +177,7 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
     inclines = check_inclines(cfg)
     shapes = des["shape"].values
     cellkey = des["cell_key"].values
+    checked = des["check_flag"].values.astype(bool)  # adaptive: the full design's subset (see assemble_runs)
     tasks = []
     todo = np.sort(np.asarray(todo, dtype=np.int64))
     start = 0
@@ -184,7 +190,8 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
         key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
         rows = tuple(design_rows(cfg, des, idx))
         if cfg.mode == "grid":
-            tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid))
+            full = tuple(bool(f) for f in checked[idx]) if grid.early_decision else ()
+            tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid, full=full))
         else:
             lo, hi = cfg.incline_range
             tasks.append(

@@ -19,13 +19,15 @@ if TYPE_CHECKING:
 #: keys added to the schema after studies were written, with the value every earlier study
 #: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
 #: config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
-#: with it written out, so an earlier paper-form run's shards are refused, not mixed in
+#: with it written out, so an earlier paper-form run's shards are refused, not mixed in; the
+#: same for ``early_decision`` (true by default since 2026-11-27)
 ADDED_KEYS: dict[str, object] = {
     "rotation": "paper",
     "check.ratio_abs_tol": 0.05,
     "check.ratio_rel_tol": 0.1,
     "field": dataclasses.asdict(FieldConfig()),
     "precision": None,
+    "early_decision": False,
 }
 
 

@@ -1,0 +1,114 @@
+"""Early decisions (issue 15, item 3): the most a run can still climb, from its energy.
+
+A run climbs when its uphill progress over the measurement window reaches ``need`` (the
+success ratio x the no-slip speed x the window). At a time ``t`` in the window, the rest of
+the run can add at most :func:`climb_bound` to the progress; once
+
+    progress(t) + climb_bound(t) < need
+
+the verdict is failure whatever the rest of the run does, and the run may stop
+(:func:`tumblemc.kernels.stepper.run` with ``opts[O_DECIDE] == 2``).
+
+The bound, from the energy ledger's balance over ``[t, T]`` (MODEL.md, "Energy ledger";
+``kernels/ledger.py``), for a run that ends valid:
+
+- kinetic energy at ``T`` is at least 0 and at ``t`` is ``KE(t)``;
+- gravity's work is exactly ``-m g`` times the rise of the centre of mass (the position
+  update is ``x+ = x + h v+``): ``-m g sin(theta) dp - m g cos(theta) dz``, ``dp`` along
+  the uphill direction ``u`` and ``dz`` along the normal ``n``. The height ``z`` along
+  ``n`` cannot fall below 0 (the centre of mass is inside the robot, the robot above the
+  plane), so ``-m g cos(theta) dz <= m g cos(theta) z(t)``; the same holds for the
+  electrostatic force (constant, along ``-n``): ``F_e z(t)``;
+- the field does at most ``field_work_between(t, T)`` on the magnet (the magnetic energy's
+  range plus the work of the field's turning; the ledger's bound);
+- friction and the normal impulse do no positive work that the ledger does not count as
+  numerical gain (``L_GAIN`` takes every step's positive normal work), backward Euler's
+  dissipation is not negative, and a valid run gains at most ``ENERGY_GAIN_TOL`` x its
+  energy scale: the scale is taken with the potential energy released up to ``t``
+  (releasing more later would raise the tolerance by 1% of that energy, which the
+  robot must climb back first);
+- adhesion is assumed to do no net positive work over ``[t, T]``. It is an attractive
+  force in contact only (MODEL.md), so it does negative work when the robot lifts and
+  positive work only while the centre of mass descends in contact. This is the one term
+  the bound does not prove; every study audits the bound on its check runs, which run to the
+  end (``decided_time`` against their verdicts; docs/early_decisions.md).
+
+So ``m g sin(theta) (p(T) - p(t)) <= KE(t) + W_field(t, T) + (m g cos(theta) + F_e) z(t)
++ tolerance left``. The bound is loose (the field's work reaches at most 0.84 of its
+bound over any stretch of 80 audited runs; docs/kernel_experiments.md): it decides
+sliders, never a success (nothing bounds how fast a robot falls), and never on a flat plane.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import jit
+from .layout import (
+    ENERGY_GAIN_TOL,
+    FS_AMP,
+    FS_BIAS,
+    FS_FREQ,
+    FS_T0,
+    FSEG,
+    L_GAIN,
+    L_KE,
+    L_POTMAX,
+    N_PRM,
+    P_FELECT,
+    P_FIELD_ON,
+    P_FPROG,
+    P_FREQ,
+    P_G,
+    P_MASS,
+    P_N,
+    P_TORQ,
+    P_U,
+)
+
+DECIDE_EVERY = 20  # steps between two evaluations of the bound (1 ms at the default dt)
+
+
+@jit
+def field_work_between(prm, ta, tb):  # type: ignore[no-untyped-def]
+    """The most work the field can do on the magnet between the times ``ta`` and ``tb``
+    (scaled): :func:`~.field.field_work_bound` over ``[ta, tb]`` instead of ``[0, T]``
+    (a program's segments that overlap the interval, each its energy range plus its turning)."""
+    if prm[P_FIELD_ON] < 0.5 or tb <= ta:
+        return 0.0
+    n = int(prm[P_FPROG])
+    if n == 0:
+        return prm[P_TORQ] * (2.0 + 2.0 * math.pi * prm[P_FREQ] * (tb - ta))
+    tot = 0.0
+    for k in range(n):
+        b = N_PRM + k * FSEG
+        s0 = prm[b + FS_T0]
+        s1 = prm[b + FSEG + FS_T0] if k + 1 < n else math.inf
+        lo = max(s0, ta)
+        hi = min(s1, tb)
+        if hi < lo:
+            continue
+        bias = math.sqrt(prm[b + FS_BIAS] ** 2 + prm[b + FS_BIAS + 1] ** 2 + prm[b + FS_BIAS + 2] ** 2)
+        amp = abs(prm[b + FS_AMP])
+        tot += 2.0 * (amp + bias) + amp * 2.0 * math.pi * abs(prm[b + FS_FREQ]) * (hi - lo)
+    return tot
+
+
+@jit
+def climb_bound(prm, x, led, t, t_end, eref0):  # type: ignore[no-untyped-def]
+    """The most uphill progress (scaled length, along ``u``) the centre of mass at ``x``
+    can still make between ``t`` and ``t_end``, with the ledger ``led`` at ``t`` and
+    ``eref0`` = initial kinetic energy + ``m g`` x length unit + the field's work bound over
+    the run (the energy scale without the potential energy released). ``inf`` on a plane
+    that does not rise along ``u``."""
+    wg = prm[P_MASS] * prm[P_G] * prm[P_U + 2]  # m g sin(theta)
+    if wg <= 0.0:
+        return math.inf
+    zc = prm[P_N] * x[0] + prm[P_N + 1] * x[1] + prm[P_N + 2] * x[2]
+    fn = prm[P_MASS] * prm[P_G] * prm[P_N + 2] + prm[P_FELECT]  # m g cos(theta) + F_e
+    tol_left = max(ENERGY_GAIN_TOL * (eref0 + led[L_POTMAX]) - led[L_GAIN], 0.0)
+    e = led[L_KE] + field_work_between(prm, t, t_end) + fn * max(zc, 0.0) + tol_left
+    return e / wg
+
+
+__all__ = ["DECIDE_EVERY", "climb_bound", "field_work_between"]
