@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -146,3 +147,37 @@ def test_early_decision_config_key() -> None:
     # a study written before the key (early_decision false, implied) keeps its hash; the default does not
     assert "early_decision" not in config_to_json(load_config({**base, "early_decision": False}))
     assert config_hash(load_config({**base, "early_decision": False})) != config_hash(load_config(base))
+
+
+@pytest.mark.slow
+def test_study_stops_sliders_audits_the_check_runs_and_keeps_every_verdict(tmp_path: Path) -> None:
+    """A small study with and without early decisions: the same verdicts run by run.
+
+    The cuboid on paper at 60 deg slides; half the runs are check runs, which run to the end
+    and audit the bound.
+    """
+    from tumblemc.analysis.maps import early_words
+    from tumblemc.study.engine import run_study
+    from tumblemc.viz.ratio import plot_ratio_distribution
+
+    cfg = {"name": "ed", "shapes": ["cuboid"], "presets": ["paper"], "incline_deg": [45, 60], "field_mT": 20, "freq_hz": 1,
+           "samples": 4, "seed": 3, "check": {"fraction": 0.5, "min_runs": 2, "dt_factor": 2}}  # fmt: skip
+    on = run_study(cfg, out=tmp_path / "on.nc", progress=False).runs
+    off = run_study({**cfg, "early_decision": False}, out=tmp_path / "off.nc", progress=False).runs
+    early = on["decided_early"].values == 1
+    checked = on["check_flag"].values == 1
+    assert early.any() and not early[checked].any()
+    assert off["decided_early"].values.sum() == 0 and on.attrs["decided_early_runs"] == early.sum()
+    # every verdict and status the same; the runs not stopped identical in every outcome
+    assert np.array_equal(on["climbed"].values, off["climbed"].values)
+    assert np.array_equal(on["status"].values, off["status"].values)
+    assert np.array_equal(on["decided_time"].values, off["decided_time"].values, equal_nan=True)
+    for k in ("progress_ratio", "newton_iterations", "energy_gain"):
+        assert np.array_equal(on[k].values[~early], off[k].values[~early], equal_nan=True)
+    # the audit: check runs decided by the bound (at dt and at dt/2) never climbed
+    assert on.attrs["early_decision_audit_dt_climbed"] == 0 and on.attrs["early_decision_audit_fine_climbed"] == 0
+    assert on.attrs["early_decision_audit_dt_runs"] == checked.sum()
+    words = early_words(on)
+    assert words is not None and f"{early.sum()} of 8 runs" in words
+    assert early_words(off) is None
+    plot_ratio_distribution(on, path=tmp_path / "ratio.png")

@@ -11,7 +11,9 @@ a 200-sample REFERENCE. Reported:
 - runs valid in one study only;
 - per cell, over the matched runs valid in both: ``p_success`` of each, and whether NEW's
   lies in REFERENCE's Wilson interval at the studies' level (every cell should);
-- the progress ratios of the climbing runs of both: median and largest relative difference.
+- the progress ratios of the climbing runs of both: median and largest relative difference;
+- runs stopped by an early decision (``decided_early``) in each, and how many of those
+  climbed in the other study.
 """
 
 from __future__ import annotations
@@ -82,6 +84,12 @@ def compare(ref: Path, new: Path) -> tuple[list[dict[str, Any]], dict[str, Any]]
         "iterations_ref": float(np.nanmean(rr["newton_iterations"].values[ir])),
         "iterations_new": float(np.nanmean(nr["newton_iterations"].values[inn])),
     }
+    for tag, runs, idx, valid in (("ref", rr, ir, vr), ("new", nr, inn, vn)):
+        early = runs["decided_early"].values[idx] == 1 if "decided_early" in runs.variables else np.zeros(idx.size, dtype=bool)
+        totals[f"early_{tag}"] = int(early.sum())
+        # stopped by an early decision (verdict failure) in one study, climbed in the other
+        other = cn if tag == "ref" else cr
+        totals[f"early_{tag}_climbed_other"] = int((early & valid & other).sum())
     return rows, totals
 
 
@@ -97,7 +105,9 @@ def report(rows: list[dict[str, Any]], t: dict[str, Any], ref: Path, new: Path) 
         f"- Progress ratios of the {t['climbing_both']:,} runs that climb in both: relative difference median "
         f"{float(t['ratio_rel_median']):.2e}, largest {float(t['ratio_rel_max']):.2e}.",
         f"- Iterations per step (mean over runs): {float(t['iterations_ref']):.2f} in the reference, "
-        f"{float(t['iterations_new']):.2f} in the new study.",
+        f"{float(t['iterations_new']):.2f} in the new study (over the steps taken).",
+        f"- Runs stopped by an early decision: {t['early_ref']:,} in the reference, {t['early_new']:,} in the new study; "
+        f"of the new study's, {t['early_new_climbed_other']} climbed in the reference.",
         "",
         "| shape | substrate | incline | runs | p (reference) | p (new) | reference interval | inside | verdicts differ |",
         "|---|---|---|---|---|---|---|---|---|",

@@ -238,7 +238,7 @@ def _bokeh_note() -> str:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from tumblemc.analysis.maps import check_words
+    from tumblemc.analysis.maps import check_words, early_words
     from tumblemc.io import open_result
     from tumblemc.viz.study import plot_study
 
@@ -247,9 +247,9 @@ def _plot(args: argparse.Namespace) -> int:
     out_dir = Path(args.out) if args.out else result.with_name(result.stem + "_plots")
     for path in plot_study(runs, maps, out_dir):
         print(f"wrote {path}")
-    words = check_words(runs, str(result))
-    if words:
-        print(words)
+    for words in (check_words(runs, str(result)), early_words(runs)):
+        if words:
+            print(words)
     return 0
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from tumblemc.analysis.maps import check_words
+from tumblemc.analysis.maps import check_words, early_words
 from tumblemc.io import ShardStore, open_result, read_study_json, result_attrs
 from tumblemc.study.config import config_hash, config_to_json, load_config
 from tumblemc.study.design import check_subset, design
@@ -112,4 +112,7 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
     words = check_words(runs, str(path))
     if words:
         out["dt_check"] = words
+    words = early_words(runs)
+    if words:
+        out["early_decisions"] = words
     return out

@@ -116,7 +116,10 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
         would be too wide), inclines along x, a box per shape at each incline; a shared
         symmetric-log y axis (:func:`ratio_axis`: linear on the shaded band); the dashed
         line is the success threshold ``runs.attrs["success_ratio"]`` (default 0.5); runs
-        that are not valid (status != 0, no ratio) are red crosses along the bottom edge.
+        that are not valid (status != 0, no ratio) are red crosses along the bottom edge;
+        runs stopped by an early decision (``decided_early``) are open triangles at their
+        ratio up to the decision, outside the boxes (their final ratio is only known to
+        be below the threshold).
     """
     runs = sort_runs(runs)
     thr = float(runs.attrs.get("success_ratio", 0.5))
@@ -135,6 +138,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
     inc_v = runs["incline_deg"].values
     ratio = runs["progress_ratio"].values.astype(np.float64)
     bad = runs["status"].values != 0
+    # runs stopped by an early decision: their ratio is the one up to the decision (censored)
+    early = runs["decided_early"].values == 1 if "decided_early" in runs.variables else np.zeros(runs.sizes["run"], dtype=bool)
     good = ratio[~bad & np.isfinite(ratio)]
     lo, hi = (float(good.min()), float(good.max())) if good.size else (np.nan, np.nan)
     for (r, row), (c, sub) in itertools.product(enumerate(rows), enumerate(subs)):
@@ -150,8 +155,13 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
             cell = in_row & (sub_v == sub) & (shape_v == shp) & (inc_v == inc)
             xc = i + (k - (ns - 1) / 2) * width
             colour = f"C{k % 10}"
-            y = ratio[cell & ~bad]
+            y = ratio[cell & ~bad & ~early]
             y = y[np.isfinite(y)]
+            yc = ratio[cell & ~bad & early]
+            yc = yc[np.isfinite(yc)]
+            if yc.size:
+                jit_c = ((np.arange(yc.size) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
+                ax.plot(xc + jit_c, yc, "v", mfc="none", mec=colour, ms=3.0, mew=0.6, alpha=0.7)
             if y.size:
                 bp = ax.boxplot([y], positions=[xc], widths=0.75 * width, showfliers=False, patch_artist=True, manage_ticks=False)
                 for box in bp["boxes"]:
@@ -174,6 +184,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
         ax.set_title(panel_title(sub, row), fontsize=9)
     handles = [Line2D([], [], color=f"C{k % 10}", marker="s", ls="", alpha=0.5, label=shp) for k, shp in enumerate(shapes)]
     handles.append(Line2D([], [], color="k", ls="--", label=f"success threshold {thr:g}"))
+    if early.any():
+        handles.append(Line2D([], [], color="0.3", marker="v", mfc="none", ls="", label="decided early (ratio up to then; fails)"))
     handles.append(Line2D([], [], color="red", marker="x", ls="", label="not valid (status != 0)"))
     fig.legend(handles=handles, loc="outside upper center", ncol=len(handles), fontsize=8, frameon=False)
     save_figure(fig, path)

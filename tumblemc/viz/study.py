@@ -27,7 +27,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from tumblemc.analysis.maps import check_summary, check_words
+from tumblemc.analysis.maps import check_summary, check_words, early_words
 from tumblemc.schema import SWEEP_DIMS
 from tumblemc.viz.ratio import plot_ratio_distribution
 from tumblemc.viz.style import CMAP, MAX_FIG_W, panel_grid, panel_title, save_figure, sweep_rows
@@ -232,6 +232,9 @@ def _check_note(runs: xr.Dataset) -> str | None:
     words = check_words(runs, worst=1)
     if words:
         parts.append(words.split("; all in")[0])
+    early = early_words(runs)
+    if early:
+        parts.append(early.split("; audit")[0])
     return "; ".join(parts)
 
 
