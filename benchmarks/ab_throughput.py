@@ -12,7 +12,10 @@ so a slow spell of this shared machine hits both):
    engine's unit of work, in one process) on a slice of the default study: every shape on
    both presets at 0, 20, 40 and 60 deg, the first ``--samples`` samples of each cell of
    ``studies/default.toml`` (parameters drawn here, once, and given to both sides as
-   numbers, so both simulate the same robots).
+   numbers, so both simulate the same robots). Runs as a study runs them: a version
+   with early decisions (``TimeGrid.early_decision``, since 2026-11-27) stops the runs
+   that can no longer climb, as ``studies/default.toml`` has it; ``--no-early`` runs
+   every run to the end.
 
 The table gives medians over the rounds and the ratio B/A of times (below 1: B is faster);
 the summary gives the speed-up A/B of each measurement (geometric mean over scenarios for
@@ -55,7 +58,7 @@ except ImportError:
     from tumblemc.batch import TimeGrid, simulate_rows
     def spec_of(kw):
         return prepare(**kw)
-single, slices, inner = json.loads(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3])
+single, slices, inner, early = json.loads(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "1"
 out = {"single": {}, "study": {}}
 for name, kw in single.items():
     spec = spec_of(kw)
@@ -67,6 +70,9 @@ for name, kw in single.items():
         ts.append(time.perf_counter() - t)
     out["single"][name] = statistics.median(ts) / kw["duration_s"] * 1e3
 grid = TimeGrid(periods=2.0, transient_periods=1.0, max_failed_steps=1)
+if early and hasattr(grid, "early_decision"):  # as a study runs them (study.design.grid_of)
+    import dataclasses
+    grid = dataclasses.replace(grid, early_decision=True)
 for shape, rows in slices.items():
     simulate_rows(shape, rows[:1], grid)  # compile or load
     t = time.perf_counter()
@@ -100,8 +106,8 @@ def tomllib_load(path: Path) -> dict[str, Any]:
     return tomllib.loads(path.read_text())
 
 
-def _run(python: str, cache: str | None, slices: dict[str, list[dict[str, Any]]], inner: int) -> dict[str, dict[str, float]]:
-    return dict(run_worker(python, cache, WORKER, json.dumps(SINGLE), json.dumps(slices), str(inner)))
+def _run(python: str, cache: str | None, slices: dict[str, list[dict[str, Any]]], inner: int, early: bool) -> dict[str, dict[str, float]]:
+    return dict(run_worker(python, cache, WORKER, json.dumps(SINGLE), json.dumps(slices), str(inner), "1" if early else "0"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -111,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=3, help="processes per side (default 3)")
     ap.add_argument("--inner", type=int, default=3, help="timed runs per single-run scenario and process (default 3)")
     ap.add_argument("--samples", type=int, default=4, help="runs per cell of the study slice (default 4: 128 runs)")
+    ap.add_argument("--no-early", action="store_true", help="study slice without early decisions (every run to the end)")
     args = ap.parse_args(argv)
     slices = study_slice(args.samples)
     n_runs = sum(len(v) for v in slices.values())
@@ -118,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     for r in range(args.rounds):
         for side in ("a", "b") if r % 2 == 0 else ("b", "a"):
             py, cache = (args.a, args.cache_a) if side == "a" else (args.b, args.cache_b)
-            res[side].append(_run(py, cache, slices, args.inner))
+            res[side].append(_run(py, cache, slices, args.inner, not args.no_early))
         print(f"round {r + 1}/{args.rounds} done", file=sys.stderr)
 
     def med(side: str, part: str, name: str) -> float:

@@ -390,7 +390,9 @@ def early_words(runs: xr.Dataset) -> str | None:
     for tag, label in (("dt", ""), ("fine", f" at dt/{a.get('check_dt_factor', '?'):g}" if "check_dt_factor" in a else " at the finer dt")):
         dec, tot, cl = (int(a[f"early_decision_audit_{tag}_{x}"]) for x in ("decided", "runs", "climbed"))
         verdict = "none climbed" if cl == 0 else f"{cl} CLIMBED (the bound failed; please report)"
-        parts.append(f"{label.strip() + ': ' if label else ''}the bound decided {dec} of {tot}, {verdict}")
+        inv = int(a.get(f"early_decision_audit_{tag}_invalid_after", 0))
+        after = f", {inv} more decided turned invalid later" if inv else ""
+        parts.append(f"{label.strip() + ': ' if label else ''}the bound decided {dec} of {tot} valid, {verdict}{after}")
     return f"{text}; audit on the check runs simulated to the end: {parts[0]} ({parts[1]})"
 
 

@@ -98,8 +98,9 @@ def _check_pos(check: dict[str, np.ndarray], check_idx: np.ndarray) -> np.ndarra
 def _audit(runs: xr.Dataset, check_idx: np.ndarray, check: dict[str, np.ndarray], pos: np.ndarray) -> dict[str, int]:
     """The early decision's audit over the check runs simulated to the end.
 
-    At dt and at the finer dt: how many the energy bound decided, and how many of those
-    nevertheless climbed (must be 0).
+    At dt and at the finer dt: how many the energy bound decided, how many of those
+    nevertheless climbed (must be 0), and how many it decided that ended invalid (a run
+    stopped early counts as a failure, where the full run would have been left out).
     """
     out = {}
     for tag, decided, climbed_, status, early in (
@@ -117,6 +118,8 @@ def _audit(runs: xr.Dataset, check_idx: np.ndarray, check: dict[str, np.ndarray]
         out[f"early_decision_audit_{tag}_runs"] = int(np.count_nonzero(full))
         out[f"early_decision_audit_{tag}_decided"] = int(np.count_nonzero(hit))
         out[f"early_decision_audit_{tag}_climbed"] = int(np.count_nonzero(hit & (climbed_ == 1)))
+        # decided, then invalid later (a failed step, the ledger): stopped early, such a run counts as a failure
+        out[f"early_decision_audit_{tag}_invalid_after"] = int(np.count_nonzero((early == 0) & (status != 0) & np.isfinite(decided)))
     return out
 
 
