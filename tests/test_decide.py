@@ -162,7 +162,8 @@ def test_study_stops_sliders_audits_the_check_runs_and_keeps_every_verdict(tmp_p
 
     cfg = {"name": "ed", "shapes": ["cuboid"], "presets": ["paper"], "incline_deg": [45, 60], "field_mT": 20, "freq_hz": 1,
            "samples": 4, "seed": 3, "check": {"fraction": 0.5, "min_runs": 2, "dt_factor": 2}}  # fmt: skip
-    on = run_study(cfg, out=tmp_path / "on.nc", progress=False).runs
+    res = run_study(cfg, out=tmp_path / "on.nc", progress=False)
+    on = res.runs
     off = run_study({**cfg, "early_decision": False}, out=tmp_path / "off.nc", progress=False).runs
     early = on["decided_early"].values == 1
     checked = on["check_flag"].values == 1
@@ -181,3 +182,10 @@ def test_study_stops_sliders_audits_the_check_runs_and_keeps_every_verdict(tmp_p
     assert words is not None and f"{early.sum()} of 8 runs" in words
     assert early_words(off) is None
     plot_ratio_distribution(on, path=tmp_path / "ratio.png")
+    # the maps count them and keep their censored ratios out of the ratio statistics
+    assert int(res.maps["n_decided_early"].sum()) == early.sum()
+    for inc in (45.0, 60.0):
+        cell = (on["incline_deg"].values == inc) & (on["status"].values == 0) & ~early
+        want = np.sort(on["progress_ratio"].values[cell]).sum() / cell.sum() if cell.any() else np.nan
+        got = float(res.maps["progress_ratio_mean"].sel(incline_deg=inc).squeeze())
+        assert got == pytest.approx(want, rel=1e-12, nan_ok=True)

@@ -196,8 +196,10 @@ def maps(
         scalar coordinates), and ``quantile`` for ``progress_ratio_quantile``. Variables:
         ``p_success`` with ``p_success_lower``/``p_success_upper``; counts ``n_success``,
         ``n_valid``, ``n_failed``, ``n_runs`` (int64); ``progress_ratio_mean``,
-        ``progress_ratio_quantile`` and ``mean_speed_mean`` (m/s) over valid runs.
-        Cells without valid runs hold NaN (and cells without runs count 0).
+        ``progress_ratio_quantile`` and ``mean_speed_mean`` (m/s) over valid runs
+        simulated to the end (``n_decided_early`` counts the runs stopped by an early
+        decision, whose ratios are censored). Cells without such runs hold NaN (and
+        cells without runs count 0).
 
     Notes
     -----
@@ -236,11 +238,14 @@ def maps(
 
     ratio = runs["progress_ratio"].values.astype(np.float64)
     speed = runs["mean_speed"].values.astype(np.float64)
+    # runs stopped by an early decision have censored ratios: left out of the ratio statistics
+    early = runs["decided_early"].values == 1 if "decided_early" in runs.variables else np.zeros(ratio.size, dtype=bool)
+    n_early = np.bincount(idx, weights=early, minlength=ncell).astype(np.int64)
     ratio_mean = np.full(ncell, np.nan)
     speed_mean = np.full(ncell, np.nan)
     ratio_q = np.full((ncell, q.size), np.nan)
     for c, rows in enumerate(groups):
-        rows = rows[valid[rows]]
+        rows = rows[valid[rows] & ~early[rows]]
         r = ratio[rows]
         r = r[np.isfinite(r)]
         s = speed[rows]
@@ -279,6 +284,8 @@ def maps(
         "progress_ratio_quantile": ([*dims, "quantile"], grid(ratio_q)),
         "mean_speed_mean": (dims, grid(speed_mean)),
     }
+    if "decided_early" in runs.variables:
+        data["n_decided_early"] = (dims, grid(n_early))
     if "check_ratio_within_tol" in runs.variables:
         with np.errstate(invalid="ignore", divide="ignore"):
             share = np.where(n_check > 0, n_within / np.maximum(n_check, 1), np.nan)
