@@ -97,9 +97,26 @@ def test_field_work_between_is_the_run_bound_on_the_whole_run_and_splits() -> No
     assert field_work_between(sp.prm, t1, Tp) == pytest.approx(2 * amp2 + amp2 * 2 * math.pi * f2 * (Tp - t1), rel=1e-12)
 
 
-def test_flat_plane_is_never_decided() -> None:
+def test_flat_plane_and_contact_only_electrostatics_are_never_decided() -> None:
     spec = prepare(run_inputs("cuboid", preset="paper", incline_deg=0.0, duration_s=2.0))
     assert math.isinf(climb_bound(spec.prm, np.zeros(3), np.zeros(L.N_LED), 0.0, 1.0, 1.0))
+    # in contact only, the electrostatic force is no potential (a hop gains F_e x its height)
+    on = prepare(run_inputs("cuboid", preset="paper", incline_deg=45.0, duration_s=2.0))
+    off = prepare(run_inputs("cuboid", preset="paper", incline_deg=45.0, duration_s=2.0, electrostatic_in_flight=False))
+    assert math.isfinite(climb_bound(on.prm, np.zeros(3), np.zeros(L.N_LED), 0.0, 1.0, 1.0))
+    assert math.isinf(climb_bound(off.prm, np.zeros(3), np.zeros(L.N_LED), 0.0, 1.0, 1.0))
+
+
+def test_only_grid_studies_decide_early() -> None:
+    from tumblemc.study.design import grid_of
+
+    base = {"name": "e", "shapes": ["cuboid"], "presets": ["paper"], "incline_deg": [30, 45], "field_mT": 20, "freq_hz": 1,
+            "samples": 2, "seed": 1}  # fmt: skip
+    assert grid_of(load_config(base)).early_decision
+    assert not grid_of(load_config(base), fine=True).early_decision  # the dt check runs to the end
+    assert not grid_of(load_config({**base, "early_decision": False})).early_decision
+    # critical-incline studies have no audit: every run to the end
+    assert not grid_of(load_config({**base, "mode": "critical_incline", "incline_range": {"min": 0, "max": 60}})).early_decision
 
 
 @pytest.fixture(scope="module")
@@ -178,6 +195,13 @@ def test_study_stops_sliders_audits_the_check_runs_and_keeps_every_verdict(tmp_p
     # the audit: check runs decided by the bound (at dt and at dt/2) never climbed
     assert on.attrs["early_decision_audit_dt_climbed"] == 0 and on.attrs["early_decision_audit_fine_climbed"] == 0
     assert on.attrs["early_decision_audit_dt_runs"] == checked.sum()
+    # a censored outcome is not ranked as if it were final
+    from tumblemc.analysis.screening import rank_correlation
+
+    with pytest.raises(ValueError, match="early decision"):
+        rank_correlation(on, outcome="progress_ratio")
+    assert "rho" in rank_correlation(on, outcome="climbed")
+    assert "rho" in rank_correlation(off, outcome="progress_ratio")
     words = early_words(on)
     assert words is not None and f"{early.sum()} of 8 runs" in words
     assert early_words(off) is None

@@ -132,6 +132,21 @@ def _coords(runs: xr.Dataset, dims: Sequence[str], values: Mapping[str, np.ndarr
     return coords
 
 
+#: per-run outcomes that an early decision censors (kept up to the decision)
+CENSORED_OUTCOMES = ("progress_ratio", "mean_speed", "progress", "newton_iterations", "lateral_drift", "heading_change_deg")
+
+
+def censored_outcome(runs: xr.Dataset, outcome: str) -> None:
+    """Raise if ``outcome`` is censored in some valid run (stopped by an early decision)."""
+    if outcome in CENSORED_OUTCOMES and "decided_early" in runs.variables:
+        k = int(np.count_nonzero((runs["decided_early"].values == 1) & valid_mask(runs)))
+        if k:
+            raise ValueError(
+                f"{k} valid runs were stopped by an early decision, so their {outcome} is censored (known only up to the "
+                f"decision): rank them by outcome='climbed', or run the study with early_decision = false"
+            )
+
+
 def rank_correlation(
     runs: xr.Dataset,
     by: Sequence[str] | None = None,
@@ -177,6 +192,7 @@ def rank_correlation(
         raise ValueError(f"runs has no outcome variable {outcome!r}")
     if not (0.0 < float(level) < 1.0):
         raise ValueError(f"level must be in (0, 1), got {level!r}")
+    censored_outcome(runs, outcome)
     values, shape, groups = _groups(runs, dims)
     valid = valid_mask(runs)
     y_all = np.asarray(runs[outcome].values, dtype=np.float64)

@@ -184,7 +184,9 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
         t_run = rec[rows - 1, R_T] - rec[0, R_T]
         eref = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G] + rec[rows - 1, R_LED + L_POTMAX]
         if prms[b, P_FIELD_ON] > 0.5:
-            eref += field_work_bound(prms[b], t_run)
+            # a run stopped by an early decision: the whole run's field bound (its tolerance
+            # and the field_work_bound column are the whole run's; the gain only grows)
+            eref += field_work_bound(prms[b], n_steps * hs[b] if status == ST_DECIDED else t_run)
         gain = rec[rows - 1, R_LED + L_GAIN]
         if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
             code = BATCH_FAILED_STEPS

@@ -277,7 +277,8 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
     """The study's time grid of every run (``fine``: at ``dt / [check].dt_factor``, for the numerical check).
 
     A run stops at its first failed step (``max_failed_steps=1``), and once its verdict
-    can only be failure when ``cfg.early_decision`` (not at the finer dt).
+    can only be failure when ``cfg.early_decision`` (grid mode only, where the dt-check
+    runs audit the bound; not at the finer dt).
     """
     dt = study_dt(cfg)
     if fine:
@@ -292,7 +293,7 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
         rotation=cfg.rotation,
         success_ratio=cfg.success_ratio,
         max_failed_steps=1,
-        early_decision=cfg.early_decision and not fine,
+        early_decision=cfg.early_decision and cfg.mode == "grid" and not fine,
     )
 
 

@@ -12,6 +12,7 @@ a ``problem`` is a plain dict.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -152,7 +153,8 @@ def _simulate(config: StudyConfig, shape: str, cells: list[dict[str, Any]], outc
 
     if outcome not in ("progress_ratio", "mean_speed"):
         raise ValueError(f"outcome={outcome!r} is not allowed (allowed: progress_ratio, mean_speed)")
-    res = simulate_rows(shape, [batch_row(config, c) for c in cells], grid_of(config))
+    # every run to the end: Sobol indices need every run's ratio, not a censored one
+    res = simulate_rows(shape, [batch_row(config, c) for c in cells], dataclasses.replace(grid_of(config), early_decision=False))
     return np.where(res["status"] == 0, res[outcome], np.nan)
 
 

@@ -113,7 +113,8 @@ def plot_success_vs_parameter(
         dashed: the success threshold when the outcome is the progress ratio). Line and
         band (right axis): fraction of valid runs that climbed per bin, at the bin's
         median parameter, with its confidence interval. Red crosses on the bottom edge:
-        runs that are not valid.
+        runs that are not valid. Open triangles: runs stopped by an early decision (their
+        outcome up to the decision; they failed).
     """
     if bins < 1:
         raise ValueError(f"bins must be >= 1, got {bins!r}")
@@ -125,6 +126,8 @@ def plot_success_vs_parameter(
     y_all = np.asarray(runs[outcome].values, dtype=np.float64)
     climbed = np.asarray(runs["climbed"].values) == 1
     inc_all = np.asarray(runs["incline_deg"].values, dtype=np.float64)
+    # runs stopped by an early decision: their outcome up to the decision (censored)
+    early = np.asarray(runs["decided_early"].values) == 1 if "decided_early" in runs.variables else np.zeros(y_all.size, dtype=bool)
     thr = float(runs.attrs.get("success_ratio", 0.5))
     ncols = min(len(names), 3)
     nrows = -(-len(names) // ncols)
@@ -140,7 +143,9 @@ def plot_success_vs_parameter(
             sel = mask & (inc_all == inc)
             good = sel & valid & np.isfinite(x_all)
             ok = good & np.isfinite(y_all)
-            ax.plot(x_all[ok], y_all[ok], ".", color=colour, ms=3, alpha=0.45)
+            ax.plot(x_all[ok & ~early], y_all[ok & ~early], ".", color=colour, ms=3, alpha=0.45)
+            if np.any(ok & early):
+                ax.plot(x_all[ok & early], y_all[ok & early], "v", mfc="none", mec=colour, ms=3, mew=0.6, alpha=0.6)
             bad = sel & ~valid & np.isfinite(x_all)
             if np.any(bad):
                 ax.plot(x_all[bad], np.full(int(np.count_nonzero(bad)), 0.03), "x", color="red", ms=4, transform=ax.get_xaxis_transform())
@@ -170,7 +175,10 @@ def plot_success_vs_parameter(
         if p == 0 and inclines.size > 1:
             right.legend(fontsize=7, frameon=False, title="incline", title_fontsize=7)
     where = f"{shape} on {substrate}" + (f", incline {float(incline_deg):g} deg" if incline_deg is not None else "")
-    fig.suptitle(f"{where}: dots {outcome} of valid runs; lines fraction climbed per bin ({level:.0%} {method} band)", fontsize=9)
+    early_note = "; open triangles: decided early (censored)" if np.any(mask & early & valid) else ""
+    fig.suptitle(
+        f"{where}: dots {outcome} of valid runs{early_note}; lines fraction climbed per bin ({level:.0%} {method} band)", fontsize=9
+    )
     save_figure(fig, path)
     return fig
 
