@@ -143,12 +143,15 @@ MAP_VARIABLES: dict[str, dict[str, str]] = {
         "long_name": "fraction of all runs, counting invalid runs as successes ((n_success + n_failed) / n_runs)",
     },
     "n_runs": {"units": "1", "long_name": "number of runs"},
-    "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs not stopped by an early decision"},
+    "progress_ratio_mean": {"units": "1", "long_name": "mean progress ratio over valid runs (NaN where a run was decided early)"},
     "progress_ratio_quantile": {
         "units": "1",
-        "long_name": "quantiles of the progress ratio over valid runs not stopped by an early decision",
+        "long_name": (
+            "quantiles of the progress ratio over valid runs; where runs were decided early (final ratio below the success"
+            " threshold), exact at or above the threshold and NaN below"
+        ),
     },
-    "mean_speed_mean": {"units": "m s-1", "long_name": "mean uphill speed over valid runs not stopped by an early decision"},
+    "mean_speed_mean": {"units": "m s-1", "long_name": "mean uphill speed over valid runs (NaN where a run was decided early)"},
     "check_within_tol_share": {
         "units": "1",
         "long_name": "share of the cell's dt-check runs whose progress ratios at dt and dt / check_dt_factor agree within tolerance",
@@ -157,7 +160,7 @@ MAP_VARIABLES: dict[str, dict[str, str]] = {
     "n_check_compared": {"units": "1", "long_name": "dt-check runs of the cell valid at both time steps"},
     "n_decided_early": {
         "units": "1",
-        "long_name": "runs stopped by an early decision (failures; their censored ratios are left out of the ratio statistics)",
+        "long_name": "runs stopped by an early decision (failures whose final ratio is only known to be below the success threshold)",
     },
 }
 

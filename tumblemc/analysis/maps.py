@@ -196,10 +196,12 @@ def maps(
         scalar coordinates), and ``quantile`` for ``progress_ratio_quantile``. Variables:
         ``p_success`` with ``p_success_lower``/``p_success_upper``; counts ``n_success``,
         ``n_valid``, ``n_failed``, ``n_runs`` (int64); ``progress_ratio_mean``,
-        ``progress_ratio_quantile`` and ``mean_speed_mean`` (m/s) over valid runs
-        simulated to the end (``n_decided_early`` counts the runs stopped by an early
-        decision, whose ratios are censored). Cells without such runs hold NaN (and
-        cells without runs count 0).
+        ``progress_ratio_quantile`` and ``mean_speed_mean`` (m/s) over valid runs.
+        ``n_decided_early`` counts the runs stopped by an early decision: their final
+        ratio is only known to be below the success threshold, so in their cells the
+        means are NaN and a quantile is given only where it is at or above the threshold
+        (there it is exact). Cells without valid runs hold NaN (and cells without runs
+        count 0).
 
     Notes
     -----
@@ -244,12 +246,24 @@ def maps(
     ratio_mean = np.full(ncell, np.nan)
     speed_mean = np.full(ncell, np.nan)
     ratio_q = np.full((ncell, q.size), np.nan)
+    thr = float(runs.attrs.get("success_ratio", 0.5))
     for c, rows in enumerate(groups):
-        rows = rows[valid[rows] & ~early[rows]]
+        rows = rows[valid[rows]]
+        cens = early[rows]
         r = ratio[rows]
-        r = r[np.isfinite(r)]
+        keep = np.isfinite(r) | cens
+        r, cens = r[keep], cens[keep]
         s = speed[rows]
         s = s[np.isfinite(s)]
+        if cens.any():
+            # a censored run's final ratio is only known to be below the threshold: the mean
+            # is unknown, a quantile is exact where it is at or above the threshold (ranked
+            # with the censored runs at -inf) and unknown below it
+            if r.size:
+                with np.errstate(invalid="ignore"):  # interpolating next to -inf gives NaN: unknown
+                    qv = np.quantile(np.where(cens, -np.inf, r), q)
+                    ratio_q[c] = np.where(qv >= thr, qv, np.nan)
+            continue
         ratio_mean[c] = _sorted_mean(r)
         speed_mean[c] = _sorted_mean(s)
         if r.size:

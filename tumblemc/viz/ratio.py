@@ -118,8 +118,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
         line is the success threshold ``runs.attrs["success_ratio"]`` (default 0.5); runs
         that are not valid (status != 0, no ratio) are red crosses along the bottom edge;
         runs stopped by an early decision (``decided_early``) are open triangles at their
-        ratio up to the decision, outside the boxes (their final ratio is only known to
-        be below the threshold).
+        ratio up to the decision, which the boxes include (their final ratio is only known
+        to be below the threshold).
     """
     runs = sort_runs(runs)
     thr = float(runs.attrs.get("success_ratio", 0.5))
@@ -155,7 +155,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
             cell = in_row & (sub_v == sub) & (shape_v == shp) & (inc_v == inc)
             xc = i + (k - (ns - 1) / 2) * width
             colour = f"C{k % 10}"
-            y = ratio[cell & ~bad & ~early]
+            # the box holds every valid run, the decided-early ones at their ratio up to the decision
+            y = ratio[cell & ~bad]
             y = y[np.isfinite(y)]
             yc = ratio[cell & ~bad & early]
             yc = yc[np.isfinite(yc)]
@@ -169,8 +170,10 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
                 for part in ("whiskers", "caps", "medians"):
                     for ln in bp[part]:
                         ln.set(color=colour, lw=0.9)
-                jit = ((np.arange(y.size) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
-                ax.plot(xc + jit, y, ".", color=colour, ms=2.5, alpha=0.7)
+                yf = ratio[cell & ~bad & ~early]
+                yf = yf[np.isfinite(yf)]
+                jit = ((np.arange(yf.size) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
+                ax.plot(xc + jit, yf, ".", color=colour, ms=2.5, alpha=0.7)
             nbad = int(np.count_nonzero(cell & bad))
             if nbad:
                 jit_bad = ((np.arange(nbad) * GOLDEN) % 1.0 - 0.5) * 0.6 * width
@@ -185,7 +188,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
     handles = [Line2D([], [], color=f"C{k % 10}", marker="s", ls="", alpha=0.5, label=shp) for k, shp in enumerate(shapes)]
     handles.append(Line2D([], [], color="k", ls="--", label=f"success threshold {thr:g}"))
     if early.any():
-        handles.append(Line2D([], [], color="0.3", marker="v", mfc="none", ls="", label="decided early (ratio up to then; fails)"))
+        lab = "decided early (ratio up to then, in the boxes; fails)"
+        handles.append(Line2D([], [], color="0.3", marker="v", mfc="none", ls="", label=lab))
     handles.append(Line2D([], [], color="red", marker="x", ls="", label="not valid (status != 0)"))
     fig.legend(handles=handles, loc="outside upper center", ncol=len(handles), fontsize=8, frameon=False)
     save_figure(fig, path)
