@@ -491,4 +491,4 @@ def cells(config: StudyConfig) -> list[dict[str, Any]]:
     return _MODES[config.mode].cells(config)
 
 
-from tumblemc.study.identity import ADDED_KEYS, config_hash, config_to_json  # noqa: E402, F401  (re-exported)
+from tumblemc.study.identity import ADDED_KEYS, config_hash, config_to_json, identity_json  # noqa: E402, F401  (re-exported)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from tumblemc.study.fieldcfg import FieldConfig
 
@@ -17,8 +17,8 @@ if TYPE_CHECKING:
     from tumblemc.study.config import StudyConfig
 
 #: keys added to the schema after studies were written, with the value every earlier study
-#: implied: left out of the canonical JSON at that value, so that an earlier study keeps its
-#: config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
+#: implied: left out of the hashed text (identity_json) at that value, so that an earlier study
+#: keeps its config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
 #: with it written out, so an earlier paper-form run's shards are refused, not mixed in; the
 #: same for ``early_decision`` (true by default since 2026-11-27)
 ADDED_KEYS: dict[str, object] = {
@@ -34,18 +34,23 @@ ADDED_KEYS: dict[str, object] = {
 def config_to_json(config: StudyConfig) -> str:
     """Canonical JSON of a config: sorted keys, defaults filled in, ``incline_deg`` expanded, ``[execution]`` left out.
 
-    ``load_config(json.loads(...))`` gives the config back (with the default execution table).
+    ``load_config(json.loads(...))`` gives the config back (with the default execution table):
+    every key is written, also those of :data:`ADDED_KEYS` (which :func:`identity_json`, the
+    text the hash is taken of, leaves out at the value earlier studies implied).
     """
-    d = dataclasses.asdict(config)
-    del d["execution"]
-    for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
-        d[k] = list(d[k])
-    d["uncertain"] = {u.param: u.to_dict() for u in config.uncertain}
-    if d.pop("posterior") is not None:  # the file (where) and its sha256 (what)
-        d["uncertain"]["posterior"] = config.posterior.to_dict() if config.posterior else None
-    d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
-    if config.mode == "grid":  # keys only the critical-incline mode takes
-        del d["incline_range"], d["incline_tol"]
+    d = _canonical(config)
+    if d["field"]["kind"] == "paper":  # the paper's field takes no other key (study/fieldcfg.py)
+        d["field"] = {"kind": "paper"}
+    return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def identity_json(config: StudyConfig) -> str:
+    """The text :func:`config_hash` is taken of.
+
+    :func:`config_to_json` without the keys of :data:`ADDED_KEYS` that hold the value every
+    earlier study implied (so that an earlier study keeps its hash).
+    """
+    d = _canonical(config)
     for key, default in ADDED_KEYS.items():  # keys added later: only when not at their default
         *parents, leaf = key.split(".")
         table = d
@@ -56,12 +61,26 @@ def config_to_json(config: StudyConfig) -> str:
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
+def _canonical(config: StudyConfig) -> dict[str, Any]:
+    d = dataclasses.asdict(config)
+    del d["execution"]
+    for k in ("shapes", "presets", "incline_deg", "field_mT", "freq_hz"):
+        d[k] = list(d[k])
+    d["uncertain"] = {u.param: u.to_dict() for u in config.uncertain}
+    if d.pop("posterior") is not None:  # the file (where) and its sha256 (what)
+        d["uncertain"]["posterior"] = config.posterior.to_dict() if config.posterior else None
+    d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
+    if config.mode == "grid":  # keys only the critical-incline mode takes
+        del d["incline_range"], d["incline_tol"]
+    return d
+
+
 def config_hash(config: StudyConfig) -> str:
-    """sha256 (hex) of the sampling scheme and :func:`config_to_json`.
+    """sha256 (hex) of the sampling scheme and :func:`identity_json`.
 
     The identity of a study's results; insensitive to ``[execution]``.
     """
-    text = config_to_json(config)
+    text = identity_json(config)
     if config.posterior is not None:  # the posterior's identity is its content, not where it lies
         text = text.replace(json.dumps(config.posterior.file), '""', 1)
     return hashlib.sha256(f"tumblemc-sampling-{_scheme()}\n{text}".encode()).hexdigest()
@@ -73,4 +92,4 @@ def _scheme() -> int:
     return SAMPLING_SCHEME
 
 
-__all__ = ["ADDED_KEYS", "config_hash", "config_to_json"]
+__all__ = ["ADDED_KEYS", "config_hash", "config_to_json", "identity_json"]
