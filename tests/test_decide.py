@@ -19,8 +19,8 @@ import xarray as xr
 
 import tumblemc
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.decide import climb_bound, field_work_between
-from tumblemc.kernels.field import field_work_bound
+from tumblemc.kernels.decide import climb_bound
+from tumblemc.kernels.field import field_work_between, field_work_bound
 from tumblemc.model.energy import ENERGY_GAIN_TOL
 from tumblemc.model.fields import Rotating, Sequence
 from tumblemc.model.rows import TimeGrid, simulate_rows
@@ -85,7 +85,7 @@ def test_field_work_between_is_the_run_bound_on_the_whole_run_and_splits() -> No
     # two halves: each carries the energy range 2|m||B| once
     halves = field_work_between(prm, 0.0, T / 2) + field_work_between(prm, T / 2, T)
     assert halves == pytest.approx(field_work_bound(prm, T) + 2 * prm[L.P_TORQ], rel=1e-12)
-    assert field_work_between(prm, T, T) == 0.0
+    assert field_work_between(prm, T, T) == 2 * prm[L.P_TORQ]  # the energy range alone
     # a program of two segments (a step in frequency at 0.5 s): over [0, T] it equals the run's bound
     prog = Sequence((0.5, Rotating(20.0, 1.0)), (1.5, Rotating(10.0, 3.0)))
     sp = prepare(run_inputs("cuboid", preset="paper", duration_s=2.0, field=prog))

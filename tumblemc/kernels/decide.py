@@ -55,55 +55,21 @@ from __future__ import annotations
 import math
 
 from ._jit import jit
+from .field import field_work_between
 from .layout import (
     ENERGY_GAIN_TOL,
-    FS_AMP,
-    FS_BIAS,
-    FS_FREQ,
-    FS_T0,
-    FSEG,
     L_GAIN,
     L_KE,
     L_POTMAX,
-    N_PRM,
     P_ELECT_FLIGHT,
     P_FELECT,
-    P_FIELD_ON,
-    P_FPROG,
-    P_FREQ,
     P_G,
     P_MASS,
     P_N,
-    P_TORQ,
     P_U,
 )
 
 DECIDE_EVERY = 20  # steps between two evaluations of the bound (1 ms at the default dt)
-
-
-@jit
-def field_work_between(prm, ta, tb):  # type: ignore[no-untyped-def]
-    """The most work the field can do on the magnet between the times ``ta`` and ``tb``
-    (scaled): :func:`~.field.field_work_bound` over ``[ta, tb]`` instead of ``[0, T]``
-    (a program's segments that overlap the interval, each its energy range plus its turning)."""
-    if prm[P_FIELD_ON] < 0.5 or tb <= ta:
-        return 0.0
-    n = int(prm[P_FPROG])
-    if n == 0:
-        return prm[P_TORQ] * (2.0 + 2.0 * math.pi * prm[P_FREQ] * (tb - ta))
-    tot = 0.0
-    for k in range(n):
-        b = N_PRM + k * FSEG
-        s0 = prm[b + FS_T0]
-        s1 = prm[b + FSEG + FS_T0] if k + 1 < n else math.inf
-        lo = max(s0, ta)
-        hi = min(s1, tb)
-        if hi < lo:
-            continue
-        bias = math.sqrt(prm[b + FS_BIAS] ** 2 + prm[b + FS_BIAS + 1] ** 2 + prm[b + FS_BIAS + 2] ** 2)
-        amp = abs(prm[b + FS_AMP])
-        tot += 2.0 * (amp + bias) + amp * 2.0 * math.pi * abs(prm[b + FS_FREQ]) * (hi - lo)
-    return tot
 
 
 @jit
@@ -127,4 +93,4 @@ def climb_bound(prm, x, led, t, t_end, eref0):  # type: ignore[no-untyped-def]
     return e / wg
 
 
-__all__ = ["DECIDE_EVERY", "climb_bound", "field_work_between"]
+__all__ = ["DECIDE_EVERY", "climb_bound"]

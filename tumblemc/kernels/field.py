@@ -48,26 +48,33 @@ def field_work_bound(prm, duration):  # type: ignore[no-untyped-def]
 
     Paper's field: ``|m||B| (2 + 2 pi f T)``. Program: per segment, ``2 |m| max|B|`` (the
     magnetic energy's range) plus ``|m| |B_rot| 2 pi f`` times the segment's time in
-    ``[0, T]`` (the work of the field's turning).
+    ``[0, T]`` (the work of the field's turning). :func:`field_work_between` from 0.
     """
+    return field_work_between(prm, 0.0, duration)
+
+
+@jit
+def field_work_between(prm, ta, tb):  # type: ignore[no-untyped-def]
+    """The most work the field can do on the magnet between the times ``ta`` and ``tb``
+    (scaled): per segment of a program that overlaps ``[ta, tb]``, its energy range plus
+    its turning over the overlap (the paper's field: one segment). The energy range counts
+    even for an empty interval, as in the ledger's bound."""
     if prm[P_FIELD_ON] < 0.5:
         return 0.0
     n = int(prm[P_FPROG])
     if n == 0:
-        return prm[P_TORQ] * (2.0 + 2.0 * math.pi * prm[P_FREQ] * duration)
+        return prm[P_TORQ] * (2.0 + 2.0 * math.pi * prm[P_FREQ] * (tb - ta))
     tot = 0.0
     for k in range(n):
         b = N_PRM + k * FSEG
-        t0 = prm[b + FS_T0]
-        if t0 > duration:
-            break
-        t1 = duration
-        if k + 1 < n:
-            t1 = min(prm[b + FSEG + FS_T0], duration)
+        lo = max(prm[b + FS_T0], ta)
+        hi = min(prm[b + FSEG + FS_T0], tb) if k + 1 < n else tb
+        if hi < lo:
+            continue
         bias = math.sqrt(prm[b + FS_BIAS] ** 2 + prm[b + FS_BIAS + 1] ** 2 + prm[b + FS_BIAS + 2] ** 2)
         amp = abs(prm[b + FS_AMP])
-        tot += 2.0 * (amp + bias) + amp * 2.0 * math.pi * abs(prm[b + FS_FREQ]) * (t1 - t0)
+        tot += 2.0 * (amp + bias) + amp * 2.0 * math.pi * abs(prm[b + FS_FREQ]) * (hi - lo)
     return tot
 
 
-__all__ = ["field_dir", "field_work_bound", "program_field"]
+__all__ = ["field_dir", "field_work_between", "field_work_bound", "program_field"]
