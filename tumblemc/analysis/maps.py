@@ -241,7 +241,7 @@ def maps(
     ratio = runs["progress_ratio"].values.astype(np.float64)
     speed = runs["mean_speed"].values.astype(np.float64)
     # runs stopped by an early decision have censored ratios: left out of the ratio statistics
-    early = runs["decided_early"].values == 1 if "decided_early" in runs.variables else np.zeros(ratio.size, dtype=bool)
+    early = decided_early_mask(runs)
     n_early = np.bincount(idx, weights=early, minlength=ncell).astype(np.int64)
     ratio_mean = np.full(ncell, np.nan)
     speed_mean = np.full(ncell, np.nan)
@@ -391,6 +391,16 @@ def check_summary(runs: xr.Dataset) -> dict[str, Any]:
     return out
 
 
+def decided_early_mask(runs: xr.Dataset) -> np.ndarray:
+    """Boolean mask over ``run`` of the runs stopped by an early decision.
+
+    Their ratio is censored. All False for a study written before early decisions.
+    """
+    if "decided_early" not in runs.variables:
+        return np.zeros(runs.sizes["run"], dtype=bool)
+    return np.asarray(runs["decided_early"].values) == 1
+
+
 def early_words(runs: xr.Dataset) -> str | None:
     """The early decisions and their audit in words, or None in a study without them.
 
@@ -401,7 +411,7 @@ def early_words(runs: xr.Dataset) -> str | None:
     if "decided_early" not in runs.variables or not runs.attrs.get("early_decision", 0):
         return None
     n = runs.sizes["run"]
-    k = int(np.count_nonzero(runs["decided_early"].values == 1))
+    k = int(np.count_nonzero(decided_early_mask(runs)))
     text = f"early decisions: {k} of {n} runs ({k / max(n, 1):.0%}) stopped once they could no longer climb"
     text += " (verdict failure, ratio censored)"
     a = runs.attrs

@@ -33,7 +33,7 @@ import xarray as xr
 from scipy import optimize, stats
 from scipy.special import expit, ndtri
 
-from tumblemc.analysis.maps import cell_groups
+from tumblemc.analysis.maps import cell_groups, decided_early_mask
 from tumblemc.model.outcome import is_valid
 from tumblemc.model.params import RANGES
 from tumblemc.schema import SENSITIVITY_COORD_ATTRS, SWEEP_DIMS, sampled_name
@@ -138,8 +138,8 @@ CENSORED_OUTCOMES = ("progress_ratio", "mean_speed", "progress", "newton_iterati
 
 def censored_outcome(runs: xr.Dataset, outcome: str) -> None:
     """Raise if ``outcome`` is censored in some valid run (stopped by an early decision)."""
-    if outcome in CENSORED_OUTCOMES and "decided_early" in runs.variables:
-        k = int(np.count_nonzero((runs["decided_early"].values == 1) & valid_mask(runs)))
+    if outcome in CENSORED_OUTCOMES:
+        k = int(np.count_nonzero(decided_early_mask(runs) & valid_mask(runs)))
         if k:
             raise ValueError(
                 f"{k} valid runs were stopped by an early decision, so their {outcome} is censored (known only up to the "

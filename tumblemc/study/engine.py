@@ -97,10 +97,9 @@ def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     except Exception:  # noqa: BLE001 - any failure of a run is data, not a crash
         if len(task.run) == 1:
             return _error_result(task)
-        full = task.full or (False,) * len(task.run)
         parts = [
-            execute_task(dataclasses.replace(task, run=(r,), rows=(row,), full=(f,) if task.full else ()))
-            for r, row, f in zip(task.run, task.rows, full, strict=True)
+            execute_task(dataclasses.replace(task, run=(r,), rows=(row,), full=task.full[k : k + 1]))
+            for k, (r, row) in enumerate(zip(task.run, task.rows, strict=True))
         ]
         return task.kind, np.asarray(task.run, dtype=np.int64), {k: np.concatenate([p[2][k] for p in parts]) for k in parts[0][2]}
 

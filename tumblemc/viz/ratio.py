@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
-from tumblemc.analysis.maps import sort_runs
+from tumblemc.analysis.maps import decided_early_mask, sort_runs
 from tumblemc.schema import SWEEP_DIMS
 from tumblemc.viz.style import GOLDEN, MAX_FIG_W, panel_grid, panel_title, save_figure, sweep_rows
 
@@ -139,7 +139,7 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
     ratio = runs["progress_ratio"].values.astype(np.float64)
     bad = runs["status"].values != 0
     # runs stopped by an early decision: their ratio is the one up to the decision (censored)
-    early = runs["decided_early"].values == 1 if "decided_early" in runs.variables else np.zeros(runs.sizes["run"], dtype=bool)
+    early = decided_early_mask(runs)
     good = ratio[~bad & np.isfinite(ratio)]
     lo, hi = (float(good.min()), float(good.max())) if good.size else (np.nan, np.nan)
     for (r, row), (c, sub) in itertools.product(enumerate(rows), enumerate(subs)):

@@ -17,7 +17,7 @@ import xarray as xr
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from tumblemc.analysis.maps import proportion_ci
+from tumblemc.analysis.maps import decided_early_mask, proportion_ci
 from tumblemc.analysis.prim import PrimResult
 from tumblemc.analysis.screening import cell_mask, uncertain_parameters, valid_mask
 from tumblemc.viz.style import CMAP, panel_grid, save_figure
@@ -127,7 +127,7 @@ def plot_success_vs_parameter(
     climbed = np.asarray(runs["climbed"].values) == 1
     inc_all = np.asarray(runs["incline_deg"].values, dtype=np.float64)
     # runs stopped by an early decision: their outcome up to the decision (censored)
-    early = np.asarray(runs["decided_early"].values) == 1 if "decided_early" in runs.variables else np.zeros(y_all.size, dtype=bool)
+    early = decided_early_mask(runs)
     thr = float(runs.attrs.get("success_ratio", 0.5))
     ncols = min(len(names), 3)
     nrows = -(-len(names) // ncols)
