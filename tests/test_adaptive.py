@@ -292,3 +292,20 @@ def test_acceptance_what_if_against_hand_counts() -> None:
     assert tool.what_if(k, n, 0.1, 200, reps=50)["mean_outside"] == 0.0
     kt, nt = tool.cells_from_table(Path(__file__).resolve().parents[1] / "docs" / "adaptive_default.md")
     assert kt.size == 104 and np.all((kt >= 0) & (kt <= nt)) and 0 < np.count_nonzero((kt > 0) & (kt < nt)) < 104
+
+
+@pytest.mark.slow
+def test_adaptive_study_on_two_workers_equals_the_serial_one(fixed_and_adaptive: tuple[Path, Path], tmp_path: Path) -> None:
+    """Rounds on a 2-worker cluster give the serial study's file.
+
+    There the rounds go dearest cell first with the tail run by run (``engine.balance``).
+    """
+    client = engine.local_client(2)
+    try:
+        out = tmp_path / "w2.nc"
+        run_study(tiny(**ADAPT), client, out=out, progress=False, batch_size=3)
+    finally:
+        cluster = client.cluster
+        client.close()
+        cluster.close()
+    assert_same_result(fixed_and_adaptive[1], out)

@@ -25,6 +25,7 @@ import tumblemc
 from tumblemc.io import StudyStateError, open_result, parts_dir, result_attrs
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.schema import TIMESTAMP_ATTRS
+from tumblemc.study import engine as eng
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import config_hash, config_to_json, identity_json, load_config
 from tumblemc.study.engine import run_study, study_status
@@ -466,3 +467,39 @@ def test_config_hash_leaves_out_added_keys_at_their_default() -> None:
     assert back == dataclasses.replace(base, execution=back.execution)  # [execution] is not part of the JSON
     with pytest.raises(ConfigError, match="check.ratio_rel_tol"):
         load_config(tiny(check={"ratio_rel_tol": -1.0}))
+
+
+def test_balance_orders_dearest_first_and_splits_the_tail() -> None:
+    """``balance`` with one worker keeps the plan.
+
+    With more it puts the dearest tasks first (stable) and splits the last 2 x workers
+    tasks run by run: every run once, its row and flag with it, keys unique.
+    """
+    rows = tuple({"preset": "paper", "incline_deg": float(i)} for i in range(40))
+    flags = (True, False, False, True)
+    tasks = [
+        eng.Task("main", f"tumblemc-main-abc-{i:09d}-4", "cuboid", tuple(range(i, i + 4)), rows[i : i + 4], TimeGrid(), full=flags)  # type: ignore[arg-type]
+        for i in range(0, 40, 4)
+    ]
+    assert eng.balance(tasks, 1, lambda t: -t.run[0]) == tasks
+    cost = {0: 1.0, 4: 5.0, 8: 5.0, 12: 2.0}  # the rest 0
+    out = eng.balance(tasks, 2, lambda t: cost.get(t.run[0], 0.0))
+    assert [t.run[0] for t in out[:6]] == [4, 8, 12, 0, 16, 20]  # dearest first, ties in plan order
+    assert all(len(t.run) == 1 for t in out[6:]) and len(out) == 6 + 16  # the last 4 tasks, one run each
+    assert sorted(r for t in out for r in t.run) == list(range(40))
+    for t in out:
+        for k, r in enumerate(t.run):
+            assert t.rows[k] == rows[r]
+            assert t.full[k] == (r % 4 in (0, 3))
+    assert len({t.key for t in out}) == len(out)
+    assert out[-1].key == "tumblemc-main-abc-000000039-1"
+
+
+def test_cell_cost_is_runs_times_the_cells_mean_iterations() -> None:
+    main = {"run": np.array([0, 1, 5, 9]), "newton_iterations": np.array([2.0, 4.0, 7.0, np.nan])}
+    cost = eng.cell_cost(main, 5)  # cells of 5 runs: cell 0 has runs 0 and 1, cell 1 run 5, cell 1's run 9 unknown
+    grid = TimeGrid()
+    assert cost(eng.Task("main", "k", "cuboid", (2, 3, 4), ({}, {}, {}), grid)) == 3 * 3.0  # type: ignore[arg-type]
+    assert cost(eng.Task("main", "k", "cuboid", (6,), ({},), grid)) == 7.0  # type: ignore[arg-type]
+    assert cost(eng.Task("main", "k", "cuboid", (12, 13), ({}, {}), grid)) == 0.0  # type: ignore[arg-type]
+    assert eng.cell_cost({}, 5)(eng.Task("main", "k", "cuboid", (0,), ({},), grid)) == 0.0  # type: ignore[arg-type]
