@@ -458,9 +458,9 @@ def _run_locked(
             bar.expect(kept.simulated + len(check_idx))
             simulate("check", np.setdiff1d(check_idx, _done(store, "check", progress)))
         else:
-            main_tasks, check_tasks = plan(cfg, des, "main", todo_main, bs, chash), plan(cfg, des, "check", todo_check, bs, chash)
-            # on a cluster the check runs (at dt / dt_factor, several times a main run's cost) go first
-            tasks = check_tasks + main_tasks if workers > 1 else main_tasks + check_tasks
+            # the check runs (at dt / dt_factor) last, as the progress bar's rate expects; their
+            # last batches run by run
+            tasks = plan(cfg, des, "main", todo_main, bs, chash) + plan(cfg, des, "check", todo_check, bs, chash)
             _execute(balance(tasks, workers), client, on_result, mif)
         for _ in range(2):  # shards set aside once the new ones are in (an older schema): their runs again
             redo_main = np.setdiff1d(used, _done(store, "main", progress))
