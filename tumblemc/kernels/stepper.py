@@ -1180,6 +1180,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                             st = ST_OK
                             res = res6
                             break
+                    if STRATEGY_SMOOTH[attempt] > 0.0 and res_best <= accept_tol:
+                        # an attempt already stalled within accept_tol, so the step is kept
+                        # (loose) whatever comes; a smoothing continuation (up to SMOOTH_MAXIT
+                        # iterations) is not tried for a better stall, the cheap strategies are
+                        continue
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
                         # smooth motion: extrapolate the last two solutions (O(h^2) warm start)
