@@ -295,11 +295,22 @@ def test_acceptance_what_if_against_hand_counts() -> None:
 
 
 @pytest.mark.slow
-def test_adaptive_study_on_two_workers_equals_the_serial_one(fixed_and_adaptive: tuple[Path, Path], tmp_path: Path) -> None:
+def test_adaptive_study_on_two_workers_equals_the_serial_one(
+    fixed_and_adaptive: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Rounds on a 2-worker cluster give the serial study's file.
 
     There the rounds go dearest cell first with the tail run by run (``engine.balance``).
     """
+    calls: list[tuple[int, int, int]] = []
+    real = engine.balance
+
+    def spy(tasks: list[engine.Task], workers: int, cost: Any = None) -> list[engine.Task]:
+        out = real(tasks, workers, cost)
+        calls.append((workers, len(tasks), sum(len(t.run) == 1 for t in out)))
+        return out
+
+    monkeypatch.setattr(engine, "balance", spy)
     client = engine.local_client(2)
     try:
         out = tmp_path / "w2.nc"
@@ -309,3 +320,5 @@ def test_adaptive_study_on_two_workers_equals_the_serial_one(fixed_and_adaptive:
         client.close()
         cluster.close()
     assert_same_result(fixed_and_adaptive[1], out)
+    assert calls and all(w == 2 for w, _, _ in calls)
+    assert any(single > 0 for _, _, single in calls)  # a round's tail went run by run

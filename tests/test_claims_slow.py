@@ -133,11 +133,12 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     by impulse_accept_tol; with both 0 (every unsolved step fails, the behaviour before) the
     same run has a failed step. The run slides chaotically, so the steps where this happens
     belong to one trajectory: the one with a fresh Newton matrix at every iteration
-    (``chord_iter = 0``). The chord start's solutions differ from those within ``tol``, the
+    (``chord_iter = 0``) and every strategy tried at a stall (``smooth_stalled = 1``). The
+    chord start's solutions differ from those within ``tol``, the
     slide amplifies that, and it goes elsewhere (with ``accept_tol = 0`` it has 4 failed
     steps, with the defaults 0).
     """
-    newton = {"chord_iter": 0}
+    newton = {"chord_iter": 0, "smooth_stalled": 1}
     kw = dict(
         shape="curved",
         preset="aluminum",

@@ -100,7 +100,10 @@ O_CHORD = 9
 O_DECIDE = 10
 O_DECIDE_NEED = 11  # uphill progress over the window that success needs (scaled length)
 O_DECIDE_STEP = 12  # the step that starts the measurement window
-N_OPT = 13
+# 1: a (sub-)step whose best attempt stalled within O_ACCEPT still tries the smoothing
+# strategies (the rule before 2026-11-27); 0: it skips them (stepper.run)
+O_SMOOTH_STALLED = 13
+N_OPT = 14
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

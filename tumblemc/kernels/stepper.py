@@ -39,6 +39,7 @@ from .layout import (
     O_MAXFAIL,
     O_MAXIT,
     O_NWORK,
+    O_SMOOTH_STALLED,
     P_ADHC,
     P_EB,
     P_ELECT_FLIGHT,
@@ -296,8 +297,10 @@ def lowest_point(x, R, prm, geo, kp, out, tol, hts):  # type: ignore[no-untyped-
     """Lowest point of piece ``kp``: returns its height minus the pad; ``out`` receives the
     centroid (world) of the support points within ``tol`` of the lowest one, the
     middle of the touching face or edge, a good first guess of the ECP. ``hts`` (float64,
-    at least the piece's support points) receives their heights: one pass computes them
-    (the curved robot's pieces have 226 points), the second only compares."""
+    at least the piece's support points) receives their heights: one pass computes them,
+    the second only compares. Pieces of more than ``FAST_HEIGHT_POINTS`` points (the curved
+    robot's 226) take :func:`_lowest_many`, the same results, where ``hts`` holds the
+    heights of the points near the lowest only. ``tol`` >= 0."""
     s0 = geo.sup_start[kp]
     s1 = geo.sup_start[kp + 1]
     if s1 - s0 > FAST_HEIGHT_POINTS:
@@ -1023,6 +1026,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     maxdepth = int(opts[O_MAXDEPTH])
     maxfail = int(opts[O_MAXFAIL])
     accept_tol = opts[O_ACCEPT]
+    smooth_stalled = opts[O_SMOOTH_STALLED] > 0.5
     # a contact (sub-)step whose normal impulse does more positive work than this is solved
     # again as halves (O_NWORK; a rigid contact cannot push: at a landing the robot crosses
     # several thicknesses in a step and the end-pose contact throws it back out)
@@ -1180,10 +1184,12 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                             st = ST_OK
                             res = res6
                             break
-                    if STRATEGY_SMOOTH[attempt] > 0.0 and res_best <= accept_tol:
-                        # an attempt already stalled within accept_tol, so the step is kept
-                        # (loose) whatever comes; a smoothing continuation (up to SMOOTH_MAXIT
-                        # iterations) is not tried for a better stall, the cheap strategies are
+                    if STRATEGY_SMOOTH[attempt] > 0.0 and res_best <= accept_tol and not smooth_stalled:
+                        # an attempt already stalled within accept_tol, so the (sub-)step will
+                        # not be halved for want of convergence (the lift-off check, a landing
+                        # refinement or a refinement's restart still apply); the smoothing
+                        # continuations (up to SMOOTH_MAXIT iterations each) are not tried for a
+                        # lower stall, the cheap strategies still are for a converged solution
                         continue
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:

@@ -55,6 +55,7 @@ from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
 from tumblemc.study.design import batch_row, check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
+from tumblemc.study.progress import Progress
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
 
 
@@ -247,10 +248,10 @@ def balance(tasks: list[Task], workers: int, cost: Callable[[Task], float] | Non
 def cell_cost(main: dict[str, np.ndarray], samples: int) -> Callable[[Task], float]:
     """A task's expected cost from the finished runs of its cell (adaptive rounds).
 
-    Runs x the cell's mean Newton iterations per step over its finished runs (1.8 for the
-    paper cuboid at 45 deg, 5.0 for the curved robot sliding on aluminum at 35 deg, whose
-    steps also cost more). Cells with no finished run cost 0 (design order among
-    themselves, after the known ones).
+    Runs x the cell's mean Newton iterations per step over its finished runs (a batch never
+    spans two cells, :func:`plan`): 1.8 for the paper cuboid at 45 deg, 5.0 for the curved
+    robot sliding on aluminum at 35 deg, whose steps also cost more. Cells with no finished
+    run cost 0 (design order among themselves, after the known ones).
     """
     runs = np.asarray(main.get("run", np.zeros(0, np.int64)), dtype=np.int64)
     its = np.asarray(main.get("newton_iterations", np.zeros(0)), dtype=np.float64)
@@ -265,55 +266,6 @@ def cell_cost(main: dict[str, np.ndarray], samples: int) -> Callable[[Task], flo
         return float(len(task.run) * mean[c]) if c < mean.size else 0.0
 
     return cost
-
-
-class Progress:
-    """The progress bar of a study on stderr (tqdm): runs done of all, rate, elapsed and ETA."""
-
-    def __init__(self, total: int, done: int = 0, enabled: bool = True, stream: Any = None) -> None:
-        from tqdm import tqdm
-
-        stream = stream or sys.stderr
-        tty = bool(getattr(stream, "isatty", lambda: False)())
-        self.bar = tqdm(
-            total=total,
-            initial=done,
-            disable=not enabled,
-            file=stream if tty else _Lines(stream),
-            unit="run",
-            smoothing=0.05,
-            mininterval=0.2 if tty else 10.0,  # a log file gets a line every 10 s, not a stream of redraws
-            dynamic_ncols=True,
-            bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} runs [{elapsed}<{remaining}, {rate_fmt}]",
-        )
-
-    def expect(self, total: int) -> None:
-        """The study now expects ``total`` runs in all (adaptive sampling closes cells early)."""
-        self.bar.total = max(int(total), self.bar.n)
-        self.bar.refresh()
-
-    def update(self, n: int) -> None:
-        """Count ``n`` more runs done."""
-        self.bar.update(n)
-
-    def close(self) -> None:
-        """End the bar."""
-        self.bar.close()
-
-
-class _Lines:
-    """A log file's view of a progress bar: each redraw on its own line instead of carriage-return overwrites."""
-
-    def __init__(self, stream: Any) -> None:
-        self.stream = stream
-
-    def write(self, text: str) -> None:
-        line = text.replace("\r", "").strip("\n")
-        if line.strip():
-            self.stream.write(line + "\n")
-
-    def flush(self) -> None:
-        self.stream.flush()
 
 
 def _execute(
@@ -434,10 +386,12 @@ def _run_locked(
         store.write(kind, run, outcome)
         bar.update(len(run))
 
-    workers = n_workers(client) if client is not None else 1
+    def slots() -> int:  # asked per batch of work: a cluster may still be starting or scaling
+        return n_workers(client) if client is not None else 1
 
     def simulate(kind: str, idx: np.ndarray) -> None:  # an adaptive round, or its check runs: waited for as a whole
         tasks = plan(cfg, des, kind, idx, bs, chash)
+        workers = slots()
         cost = cell_cost(_read(store, "main"), cfg.samples) if kind == "main" and workers > 1 else None
         _execute(balance(tasks, workers, cost), client, on_result, mif)
 
@@ -461,7 +415,7 @@ def _run_locked(
             # the check runs (at dt / dt_factor) last, as the progress bar's rate expects; their
             # last batches run by run
             tasks = plan(cfg, des, "main", todo_main, bs, chash) + plan(cfg, des, "check", todo_check, bs, chash)
-            _execute(balance(tasks, workers), client, on_result, mif)
+            _execute(balance(tasks, slots()), client, on_result, mif)
         for _ in range(2):  # shards set aside once the new ones are in (an older schema): their runs again
             redo_main = np.setdiff1d(used, _done(store, "main", progress))
             redo_check = np.setdiff1d(check_idx, _done(store, "check", progress))
