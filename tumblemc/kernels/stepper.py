@@ -221,6 +221,25 @@ def _prepare(state, t, h, prm, area_prev, touching_prev, scr):  # type: ignore[n
     return push
 
 
+@jit
+def _touching_centroid(x, R, geo, s0, s1, hts, cut, out):  # type: ignore[no-untyped-def]
+    """``out`` = the centroid (world) of support points ``s0 .. s1 - 1`` whose height in
+    ``hts`` is at most ``cut`` (:func:`lowest_point`, :func:`_lowest_many`)."""
+    for i in range(3):
+        out[i] = 0.0
+    cnt = 0
+    for p in range(s0, s1):
+        if hts[p - s0] <= cut:
+            cnt += 1
+            for i in range(3):
+                wi = x[i]
+                for j in range(3):
+                    wi += R[3 * i + j] * geo.sup_pts[p, j]
+                out[i] += wi
+    for i in range(3):
+        out[i] /= cnt
+
+
 #: pieces with more support points than this take :func:`_lowest_many` (the curved robot's
 #: 226; the others have 8 to 16)
 FAST_HEIGHT_POINTS = 32
@@ -276,19 +295,7 @@ def _lowest_many(x, R, prm, geo, kp, out, tol, hts):  # type: ignore[no-untyped-
                 best = hgt
         else:
             hts[p - s0] = math.inf
-    for i in range(3):
-        out[i] = 0.0
-    cnt = 0
-    for p in range(s0, s1):
-        if hts[p - s0] <= best + tol:
-            cnt += 1
-            for i in range(3):
-                wi = x[i]
-                for j in range(3):
-                    wi += R[3 * i + j] * geo.sup_pts[p, j]
-                out[i] += wi
-    for i in range(3):
-        out[i] /= cnt
+    _touching_centroid(x, R, geo, s0, s1, hts, best + tol, out)
     return best - geo.sup_pad[kp]
 
 
@@ -316,19 +323,7 @@ def lowest_point(x, R, prm, geo, kp, out, tol, hts):  # type: ignore[no-untyped-
         hts[p - s0] = hgt
         if hgt < best:
             best = hgt
-    for i in range(3):
-        out[i] = 0.0
-    cnt = 0
-    for p in range(s0, s1):
-        if hts[p - s0] <= best + tol:
-            cnt += 1
-            for i in range(3):
-                wi = x[i]
-                for j in range(3):
-                    wi += R[3 * i + j] * geo.sup_pts[p, j]
-                out[i] += wi
-    for i in range(3):
-        out[i] /= cnt
+    _touching_centroid(x, R, geo, s0, s1, hts, best + tol, out)
     return best - geo.sup_pad[kp]
 
 
