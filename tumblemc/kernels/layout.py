@@ -100,8 +100,8 @@ O_CHORD = 9
 O_DECIDE = 10
 O_DECIDE_NEED = 11  # uphill progress over the window that success needs (scaled length)
 O_DECIDE_STEP = 12  # the step that starts the measurement window
-# 1: a (sub-)step whose best attempt stalled within O_ACCEPT still tries the smoothing
-# strategies (the rule before 2026-11-27); 0: it skips them (stepper.run)
+# 1 (default): a (sub-)step whose best attempt stalled within O_ACCEPT still tries the
+# smoothing strategies; 0: it skips them (stepper.run; SolverOptions.smooth_stalled)
 O_SMOOTH_STALLED = 13
 N_OPT = 14
 

@@ -344,15 +344,19 @@ class SolverOptions:
         (``tol``), so the solutions agree to ``tol``, not bit for bit; the iterations
         recorded count the chord ones. 0: a fresh Jacobian and LU at every iteration (the
         rule before 2026-11-27, bit for bit). Allowed: 0 to 100.
-    smooth_stalled : when an attempt at a (sub-)step has stalled at a residual within
-        ``accept_tol``, the (sub-)step will not be halved for want of convergence (a
-        landing refinement, its restart or a lift-off may still replace it), so the
-        smoothing strategies, which cost up to 300 iterations each, are skipped there (0,
-        the default) and only the cheap ones are tried for a converged solution; the
-        iterate kept is the lowest stall among the attempts tried. On 16 aluminum runs of
-        the default study that is 10% fewer Newton iterations (the curved robot's sliders
-        17% to 39%), with the same verdicts (docs/kernel_experiments.md). 1: every strategy is tried (the rule before
-        2026-11-27, bit for bit). Allowed: 0 or 1 (an integer, as the run's attributes store it).
+    smooth_stalled : 1 (the default): every strategy is tried at every (sub-)step. 0: once
+        an attempt has stalled at a residual within ``accept_tol`` (so the (sub-)step will
+        not be halved for want of convergence; a landing refinement, its restart or a
+        lift-off may still replace it), the smoothing strategies, which cost up to 300
+        iterations each, are skipped and only the cheap ones are tried for a converged
+        solution; the iterate kept is the lowest stall among the attempts tried. Measured
+        with 0 (docs/kernel_experiments.md): 10% fewer Newton iterations on 16 aluminum
+        runs (the curved robot's sliders 17% to 39%), the main job 1,928 s against 2,280 s
+        with every verdict equal, but 26% more loose steps there (14,336 -> 18,091), and
+        on the paper robot climbing 45 deg at 10 Hz 4 loose steps where every step
+        converged and 3% to 5% more iterations: the smoothing attempts it skips are what
+        converge those steps. Not the default until that trade is settled.
+        Allowed: 0 or 1 (an integer, as the run's attributes store it).
     """
 
     tol: float = 1e-9
@@ -365,7 +369,7 @@ class SolverOptions:
     landing_work: float = 1e-5
     impulse_accept_tol: float = 1e-6
     chord_iter: int = 4
-    smooth_stalled: int = 0
+    smooth_stalled: int = 1
 
     def __post_init__(self) -> None:
         check_number("tol", self.tol, _POSITIVE)
