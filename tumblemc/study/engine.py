@@ -87,6 +87,19 @@ class Task:
     full: tuple[bool, ...] = ()  # rows run to the end despite grid.early_decision (the dt-check runs: the audit)
 
 
+def one_run_tasks(task: Task) -> list[Task]:
+    """``task`` split into one task per run.
+
+    Each keeps its row and its ``full`` flag and gets its own key (:func:`plan`'s form for
+    a batch of one).
+    """
+    stem = task.key.rsplit("-", 2)[0]
+    return [
+        dataclasses.replace(task, key=f"{stem}-{r:09d}-1", run=(r,), rows=(row,), full=task.full[k : k + 1])
+        for k, (r, row) in enumerate(zip(task.run, task.rows, strict=True))
+    ]
+
+
 def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     """Run one batch (the function every dask task calls).
 
@@ -98,10 +111,7 @@ def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     except Exception:  # noqa: BLE001 - any failure of a run is data, not a crash
         if len(task.run) == 1:
             return _error_result(task)
-        parts = [
-            execute_task(dataclasses.replace(task, run=(r,), rows=(row,), full=task.full[k : k + 1]))
-            for k, (r, row) in enumerate(zip(task.run, task.rows, strict=True))
-        ]
+        parts = [execute_task(t) for t in one_run_tasks(task)]
         return task.kind, np.asarray(task.run, dtype=np.int64), {k: np.concatenate([p[2][k] for p in parts]) for k in parts[0][2]}
 
 
@@ -236,12 +246,7 @@ def balance(tasks: list[Task], workers: int, cost: Callable[[Task], float] | Non
     cut = max(len(tasks) - TAIL_PER_WORKER * workers, 0)
     tail = []
     for t in tasks[cut:]:
-        if len(t.run) == 1:
-            tail.append(t)
-            continue
-        for k, (r, row) in enumerate(zip(t.run, t.rows, strict=True)):
-            key = f"{t.key.rsplit('-', 2)[0]}-{r:09d}-1"
-            tail.append(dataclasses.replace(t, key=key, run=(r,), rows=(row,), full=t.full[k : k + 1]))
+        tail += one_run_tasks(t) if len(t.run) > 1 else [t]
     return tasks[:cut] + tail
 
 
