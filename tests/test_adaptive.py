@@ -11,7 +11,7 @@ import pytest
 
 from tests.test_engine import _to_toml, assert_same_result, tiny
 from tests.tooling import load_tool
-from tumblemc.analysis.confseq import cs_interval, first_possible_stop, half_width, stop_count
+from tumblemc.analysis.confseq import MIXTURES, cs_interval, first_possible_stop, half_width, stop_count
 from tumblemc.analysis.coverage import interval_table, simulate_coverage
 from tumblemc.analysis.maps import proportion_ci
 from tumblemc.io import StudyStateError, open_result, parts_dir
@@ -23,33 +23,61 @@ from tumblemc.study.config import cells, config_hash, identity_json, load_config
 from tumblemc.study.engine import run_study, study_status
 
 
-def _slow_cs(k: int, n: int, level: float) -> tuple[float, float]:
+def _slow_marginal(k: int, n: int, mixture: str) -> float:
+    """The prior's integral of ``q^k (1 - q)^(n - k)``, by quadrature on the prior's density (not betaln)."""
+    from scipy.integrate import quad
+
+    total = 0.0
+    for w, a, b in MIXTURES[mixture]:
+        # quad's algebraic weight carries the ends' singularities q^(a-1) (1-q)^(b-1)
+        val, _ = quad(
+            lambda q: q**k * (1 - q) ** (n - k), 0.0, 1.0, weight="alg", wvar=(a - 1.0, b - 1.0), epsabs=0.0, epsrel=1e-12, limit=200
+        )
+        total += w * val * math.gamma(a + b) / (math.gamma(a) * math.gamma(b))
+    return total
+
+
+def _slow_cs(k: int, n: int, level: float, mixture: str) -> tuple[float, float]:
     """The mixture's interval by brute force: every p on a grid of 1e-5 where M_n(p) < 1/alpha."""
     p = np.linspace(1e-9, 1 - 1e-9, 100_001)
-    log_b = math.lgamma(k + 1) + math.lgamma(n - k + 1) - math.lgamma(n + 2)
-    log_m = log_b - k * np.log(p) - (n - k) * np.log1p(-p)
+    log_m = math.log(_slow_marginal(k, n, mixture)) - k * np.log(p) - (n - k) * np.log1p(-p)
     inside = p[log_m < math.log(1 / (1 - level))]
     return float(inside.min()), float(inside.max())
 
 
+@pytest.mark.parametrize("mixture", ["ends", "uniform"])
 @pytest.mark.parametrize(("k", "n"), [(0, 1), (1, 1), (3, 10), (0, 40), (17, 40), (40, 40), (100, 200), (7, 200)])
-def test_cs_interval_against_brute_force(k: int, n: int) -> None:
-    lo, hi = cs_interval(k, n, 0.95)
-    slo, shi = _slow_cs(k, n, 0.95)
+def test_cs_interval_against_brute_force(k: int, n: int, mixture: str) -> None:
+    lo, hi = cs_interval(k, n, 0.95, mixture)
+    slo, shi = _slow_cs(k, n, 0.95, mixture)
     assert lo == pytest.approx(slo if k > 0 else 0.0, abs=2e-5)
     assert hi == pytest.approx(shi if k < n else 1.0, abs=2e-5)
 
 
 def test_cs_closed_form_all_success_and_symmetry() -> None:
     n = np.arange(1, 300)
-    lo, hi = cs_interval(n, n, 0.9)
+    lo, hi = cs_interval(n, n, 0.9, "uniform")
     np.testing.assert_allclose(lo, (0.1 / (n + 1)) ** (1 / n), rtol=1e-12)
     assert np.all(hi == 1.0)
-    k = np.arange(0, 51)
-    lo, hi = cs_interval(k, 50)
-    lo2, hi2 = cs_interval(50 - k, 50)
-    np.testing.assert_allclose(lo, 1 - hi2, atol=1e-13)
-    assert cs_interval(0, 0) == (0.0, 1.0)
+    for m in (5, 21, 60):  # the default prior: lower = (alpha I_n)^(1/n), I_n its integral of q^n
+        lo_m, hi_m = cs_interval(m, m, 0.9)
+        assert lo_m == pytest.approx((0.1 * _slow_marginal(m, m, "ends")) ** (1 / m), rel=1e-9) and hi_m == 1.0
+    for mixture in MIXTURES:
+        k = np.arange(0, 51)
+        lo, hi = cs_interval(k, 50, mixture=mixture)
+        lo2, hi2 = cs_interval(50 - k, 50, mixture=mixture)
+        np.testing.assert_allclose(lo, 1 - hi2, atol=1e-13)
+        assert cs_interval(0, 0, mixture=mixture) == (0.0, 1.0)
+    with pytest.raises(ValueError, match="mixture must be one of"):
+        cs_interval(1, 2, mixture="jeffreys")
+
+
+def test_ends_prior_is_narrow_at_the_ends_and_a_little_wider_in_between() -> None:
+    """What the default prior buys and what it costs, against Robbins' uniform prior."""
+    n = np.arange(5, 1001)
+    assert np.all(half_width(n, n) < half_width(n, n, mixture="uniform"))  # every cell at p = 1 (or 0) stops sooner
+    assert np.all(half_width(n // 2, n) > half_width(n // 2, n, mixture="uniform"))  # p = 1/2: wider
+    assert np.all(half_width(n // 2, n) < 1.06 * half_width(n // 2, n, mixture="uniform"))  # by at most 6%
 
 
 def test_cs_is_wider_than_wilson_and_shrinks_with_n() -> None:
@@ -62,34 +90,43 @@ def test_cs_is_wider_than_wilson_and_shrinks_with_n() -> None:
 
 
 def test_first_possible_stop_and_schedule() -> None:
-    assert first_possible_stop(0.1) == 29  # (1 - (0.05/30)^(1/29)) / 2 = 0.099 <= 0.1 < the value at 28
-    assert half_width(29, 29) <= 0.1 < half_width(28, 28)
-    assert first_possible_stop(0.05) == 69
+    assert first_possible_stop(0.1) == 21
+    assert half_width(21, 21) <= 0.1 < half_width(20, 20)
+    assert half_width(0, 21) <= 0.1 < half_width(0, 20)
+    assert first_possible_stop(0.05) == 45
+    assert half_width(45, 45) <= 0.05 < half_width(44, 44)
+    assert first_possible_stop(0.1, mixture="uniform") == 29  # (1 - (0.05/30)^(1/29)) / 2 = 0.099 <= 0.1 < the value at 28
+    assert half_width(29, 29, mixture="uniform") <= 0.1 < half_width(28, 28, mixture="uniform")
+    assert first_possible_stop(0.05, mixture="uniform") == 69
     cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence"))
+    assert schedule(cfg) == [21, 32, 48, 72, 108, 162, 200]
+    cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence-uniform"))
     assert schedule(cfg) == [29, 44, 66, 99, 149, 200]
 
 
 def test_stop_count_is_the_first_prefix_and_skips_invalid_runs() -> None:
     ok = np.ones(40, bool)
-    assert stop_count(ok, ok, 0.1) == 29
-    assert stop_count(ok[:28], ok[:28], 0.1) is None
+    assert stop_count(ok, ok, 0.1) == 21
+    assert stop_count(ok[:20], ok[:20], 0.1) is None
+    assert stop_count(ok, ok, 0.1, mixture="uniform") == 29
     valid = ok.copy()
-    valid[[3, 10]] = False  # two invalid runs: 31 runs hold 29 valid ones
-    assert stop_count(valid, valid, 0.1) == 31
+    valid[[3, 10]] = False  # two invalid runs: 23 runs hold 21 valid ones
+    assert stop_count(valid, valid, 0.1) == 23
     mixed = np.arange(40) % 2 == 0
     assert stop_count(ok, mixed, 0.1) is None
 
 
+@pytest.mark.parametrize("method", ["confidence-sequence", "confidence-sequence-uniform"])
 @pytest.mark.parametrize("p", [0.0, 0.02, 0.1, 0.5, 0.9, 1.0])
-def test_coverage_at_the_stop_is_at_least_nominal(p: float) -> None:
+def test_coverage_at_the_stop_is_at_least_nominal(p: float, method: str) -> None:
     """Small version of tools/adaptive_coverage.py (docs/adaptive.md): 4000 cells per p."""
-    table = interval_table(200, 0.95)
+    table = interval_table(200, 0.95, method)
     res = simulate_coverage(p, 0.1, 200, reps=4000, seed=7, table=table)
     assert res["coverage"] >= 0.95
     if p in (0.0, 1.0):
-        assert res["mean_runs"] == 29.0
+        assert res["mean_runs"] == (21.0 if method == "confidence-sequence" else 29.0)
     if p == 0.5:
-        assert res["share_capped"] == 1.0  # 0.115 at n = 200: the cap binds
+        assert res["share_capped"] == 1.0  # 0.120 (0.115 uniform) at n = 200: the cap binds
 
 
 def test_config_rules() -> None:
@@ -107,9 +144,12 @@ def test_config_rules() -> None:
         load_config(tiny(samples=29, precision=0.1, ci="wilson"))
     with pytest.raises(ConfigError, match="mode = 'grid'"):
         load_config(tiny(samples=29, precision=0.1, mode="critical_incline", incline_deg=[0, 10, 20], ci="confidence-sequence"))
+    with pytest.raises(ConfigError, match=r"samples=20 with precision=0\.1.*allowed: samples >= 21"):
+        load_config(tiny(precision=0.1, samples=20, ci="confidence-sequence"))
+    load_config(tiny(precision=0.1, samples=21, ci="confidence-sequence"))
     with pytest.raises(ConfigError, match=r"samples=28 with precision=0\.1.*allowed: samples >= 29"):
-        load_config(tiny(precision=0.1, samples=28, ci="confidence-sequence"))
-    load_config(tiny(precision=0.1, samples=29, ci="confidence-sequence"))
+        load_config(tiny(precision=0.1, samples=28, ci="confidence-sequence-uniform"))
+    load_config(tiny(precision=0.1, samples=29, ci="confidence-sequence-uniform"))
     with pytest.raises(ValueError, match="finite"):
         cs_interval(float("nan"), 10)
 
@@ -144,7 +184,7 @@ def test_adaptive_keeps_the_prefix_the_rule_picks_from_the_fixed_study(fixed_and
         assert int(cell["n_runs"]) == j
         lo, hi = cs_interval(int(cell["n_success"]), int(cell["n_valid"]))
         assert float(cell["p_success_lower"]) == lo and float(cell["p_success_upper"]) == hi
-    assert kept[0] == kept[-1] == 6  # p = 0 and p = 1: the first possible stop at precision 0.3
+    assert kept[0] == kept[-1] == first_possible_stop(0.3) == 5  # p = 0 and p = 1: the first possible stop at precision 0.3
     assert max(kept[1:3]) > 6  # the mixed cells need more
     assert runs.attrs["runs_kept"] == sum(kept) and runs.attrs["runs_simulated"] >= sum(kept)
     assert maps["p_success_lower"].attrs["ci_method"] == "confidence-sequence"
@@ -167,7 +207,7 @@ def test_interrupted_adaptive_study_resumes_to_the_same_file(
 
     def flaky(task: engine.Task) -> Any:
         calls["n"] += 1
-        if calls["n"] > 9:  # round 1 is 8 tasks (4 cells x 6 runs, batches of 4): stop inside round 2
+        if calls["n"] > 9:  # round 1 is 8 tasks (4 cells x 5 runs, batches of 4 in each cell): stop inside round 2
             raise KeyboardInterrupt
         calls["runs"] += len(task.run)
         return real(task)
@@ -180,7 +220,7 @@ def test_interrupted_adaptive_study_resumes_to_the_same_file(
     toml = tmp_path / "a.toml"
     toml.write_text(_to_toml(tiny(**ADAPT)))
     st = study_status(toml, out)
-    assert st["state"] == "partial" and st["done"] == calls["runs"] > 24 and st["total"] == 64 and st["total_is_cap"]
+    assert st["state"] == "partial" and st["done"] == calls["runs"] > 20 and st["total"] == 64 and st["total_is_cap"]
     run_study(tiny(**ADAPT), out=out, progress=False, batch_size=3)
     assert_same_result(fixed_and_adaptive[1], out)
 
@@ -208,7 +248,7 @@ def test_plots_say_how_many_runs_each_cell_kept(fixed_and_adaptive: tuple[Path, 
     runs, maps = open_result(fixed_and_adaptive[1])
     fig = plot_success_heatmap(maps)
     texts = [t.get_text() for ax in fig.axes for t in ax.texts]
-    assert any("n=6" in t for t in texts) and "runs kept (n)" in fig._suptitle.get_text()  # type: ignore[union-attr]
+    assert any("n=5" in t for t in texts) and "runs kept (n)" in fig._suptitle.get_text()  # type: ignore[union-attr]
     plt.close(fig)
     fixed_maps = open_result(fixed_and_adaptive[0])[1]
     fig = plot_success_heatmap(fixed_maps)  # every cell 16 runs: no n
@@ -241,7 +281,7 @@ def test_a_run_lost_inside_a_round_is_simulated_again_or_stops_with_one_line() -
     read, sim, calls = _fake_store(lose=1)
     redone: list[int] = []
     res = run_adaptive(cfg, n, read, sim, redo=redone.append)
-    assert calls["n"] == 2 and np.all(res.kept == 29)  # every cell all one verdict: the first possible stop
+    assert calls["n"] == 2 and np.all(res.kept == 21)  # every cell all one verdict: the first possible stop
     assert redone == [1]  # its shard was written (counted) and set aside: simulated again, counted off once
     # resumed with runs 0..4 done; run 4's shard is set aside after the first round's simulate
     done = {i: 1 for i in range(5)}
@@ -280,15 +320,15 @@ def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
 
 
 def test_acceptance_what_if_against_hand_counts() -> None:
-    """tools/adaptive_acceptance.py: a cell with one failure in 200 stops at 29 runs and misses it with P = 171/200."""
+    """tools/adaptive_acceptance.py: a cell with one failure in 200 stops at 21 runs and misses it with P = 179/200."""
     tool = load_tool("adaptive_acceptance")
     k, n = np.array([199, 200, 0]), np.array([200, 200, 200])
     res = tool.what_if(k, n, 0.1, 0, reps=2000, seed=3)
-    # all-success and all-failure cells stop at 29 and lie inside; the 199/200 cell is outside
-    # exactly when its first 29 runs miss the failure (then P = 1 > Wilson's upper end 0.9991)
-    assert res["mean_outside"] == pytest.approx(171 / 200, abs=0.03)
-    # the 199/200 cell stops at 29 runs when they miss the failure, else at 41 (40 of 41, inside Wilson)
-    assert res["runs_kept"] == pytest.approx(2 * 29 + (171 / 200) * 29 + (29 / 200) * 41, abs=0.6)
+    # all-success and all-failure cells stop at 21 and lie inside; the 199/200 cell is outside
+    # exactly when its first 21 runs miss the failure (then P = 1 > Wilson's upper end 0.9991)
+    assert res["mean_outside"] == pytest.approx(179 / 200, abs=0.03)
+    # the 199/200 cell stops at 21 runs when they miss the failure, else at 40 (39 of 40, inside Wilson)
+    assert res["runs_kept"] == pytest.approx(2 * 21 + (179 / 200) * 21 + (21 / 200) * 40, abs=0.6)
     assert tool.what_if(k, n, 0.1, 200, reps=50)["mean_outside"] == 0.0
     kt, nt = tool.cells_from_table(Path(__file__).resolve().parents[1] / "docs" / "adaptive_default.md")
     assert kt.size == 104 and np.all((kt >= 0) & (kt <= nt)) and 0 < np.count_nonzero((kt > 0) & (kt < nt)) < 104

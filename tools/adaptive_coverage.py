@@ -8,8 +8,9 @@ sampled with adaptive sampling's rule (stop at the first run count at which the 
 half-width is at most ``precision``, or at the cap) and the interval reported at the stop
 is checked against ``p`` (:func:`tumblemc.analysis.coverage.simulate_coverage`).
 
-- the confidence sequence (what a study with ``precision`` reports): coverage must be at
-  least the nominal 95% at every ``p``;
+- the confidence sequence (what a study with ``precision`` reports, with its default
+  ``"ends"`` prior and with Robbins' uniform prior, ``ci = "confidence-sequence-uniform"``):
+  coverage must be at least the nominal 95% at every ``p``;
 - the control: the same rule with the fixed-n Wilson interval, which has no such guarantee
   under optional stopping.
 
@@ -28,6 +29,8 @@ from tumblemc.analysis.coverage import interval_table, simulate_coverage
 
 P_ISSUE = (0.0, 0.02, 0.1, 0.5, 0.9, 1.0)
 SETTINGS = ((0.1, 200), (0.05, 200), (0.05, 1000))  # (precision, cap)
+METHODS = ("confidence-sequence", "confidence-sequence-uniform", "wilson")
+STYLE = {"confidence-sequence": "-", "confidence-sequence-uniform": "--", "wilson": ":"}
 
 
 def campaign(reps: int, p_grid: np.ndarray) -> tuple[list[dict[str, float]], dict[tuple[float, int, str], np.ndarray]]:
@@ -35,9 +38,10 @@ def campaign(reps: int, p_grid: np.ndarray) -> tuple[list[dict[str, float]], dic
     rows = []
     curves: dict[tuple[float, int, str], np.ndarray] = {}
     for precision, cap in SETTINGS:
-        tables = {m: interval_table(cap, 0.95, m) for m in ("confidence-sequence", "wilson")}
+        tables = {m: interval_table(cap, 0.95, m) for m in METHODS}
         for i, p in enumerate(P_ISSUE):
             cs = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["confidence-sequence"])
+            un = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["confidence-sequence-uniform"])
             wi = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["wilson"])
             rows.append(
                 {
@@ -48,6 +52,8 @@ def campaign(reps: int, p_grid: np.ndarray) -> tuple[list[dict[str, float]], dic
                     "coverage_se": cs["coverage_se"],
                     "mean_runs": cs["mean_runs"],
                     "share_capped": cs["share_capped"],
+                    "uniform_coverage": un["coverage"],
+                    "uniform_mean_runs": un["mean_runs"],
                     "wilson_coverage": wi["coverage"],
                     "wilson_mean_runs": wi["mean_runs"],
                 }
@@ -68,19 +74,20 @@ def figure(curves: dict[tuple[float, int, str], np.ndarray], p_grid: np.ndarray,
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     colors = {(0.1, 200): "C0", (0.05, 200): "C1", (0.05, 1000): "C2"}
+    suffix = {"confidence-sequence": "", "confidence-sequence-uniform": " uniform", "wilson": " Wilson"}
     for (precision, cap, m), arr in curves.items():
-        ls = "-" if m == "confidence-sequence" else ":"
-        label = f"{precision:g}, cap {cap}" + ("" if m == "confidence-sequence" else " Wilson")
-        ax1.plot(p_grid, arr[:, 0], ls, color=colors[(precision, cap)], label=label)
-        if m == "confidence-sequence":
-            ax2.plot(p_grid, arr[:, 1], ls, color=colors[(precision, cap)], label=f"precision {precision:g}, cap {cap}")
+        label = f"{precision:g}, cap {cap}{suffix[m]}"
+        ax1.plot(p_grid, arr[:, 0], STYLE[m], color=colors[(precision, cap)], label=label)
+        if m != "wilson":
+            ax2.plot(p_grid, arr[:, 1], STYLE[m], color=colors[(precision, cap)], label=label)
     ax1.axhline(0.95, color="k", lw=0.8, label="nominal 95%")
     ax1.set(xlabel="true p (success probability of the cell)", ylabel="coverage at the stop", ylim=(0.8, 1.005), xlim=(0, 1))
-    ax1.set_title("Interval at the stop holds p (solid: confidence sequence)", fontsize=11)
-    ax1.legend(fontsize=8, loc="lower center", ncol=2, title="precision, cap (dotted: Wilson, the control)", title_fontsize=8)
+    ax1.set_title("Interval at the stop holds p", fontsize=11)
+    title = "precision, cap (solid: the default CS; dashed: uniform prior; dotted: Wilson)"
+    ax1.legend(fontsize=7, loc="lower center", ncol=3, title=title, title_fontsize=7)
     ax2.set(xlabel="true p (success probability of the cell)", ylabel="runs per cell (mean)", xlim=(0, 1), yscale="log")
-    ax2.set_title("Runs used (confidence sequence)", fontsize=11)
-    ax2.legend(fontsize=8, loc="lower center")
+    ax2.set_title("Runs used (solid: the default prior; dashed: uniform)", fontsize=11)
+    ax2.legend(fontsize=8, loc="lower center", ncol=2)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
@@ -92,27 +99,35 @@ def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: st
         f"Regenerate with `python tools/adaptive_coverage.py` ({reps:,} simulated cells per row, {seconds:.0f} s on this machine).",
         "",
         "A study with `precision = h` samples each cell until the half-width of its 95% confidence sequence "
-        "(Robbins' beta-binomial mixture, `tumblemc/analysis/confseq.py`) over its valid runs is at most `h`, "
-        "or until `samples` runs (the cap). Each simulated cell below is a sequence of independent Bernoulli(p) runs "
+        "(a beta-binomial mixture, `tumblemc/analysis/confseq.py`) over its valid runs is at most `h`, "
+        'or until `samples` runs (the cap). The default prior (`ci = "confidence-sequence"`) is half uniform, half '
+        'Beta(0.1, 0.1); `ci = "confidence-sequence-uniform"` is Robbins\' uniform prior, the rule before 2026-11-28. '
+        "Each simulated cell below is a sequence of independent Bernoulli(p) runs "
         "(the `mc` sampler's runs are independent); *coverage* is the share of cells whose reported interval holds `p`. "
-        "The control applies the same stopping rule with the fixed-n Wilson interval.",
+        "The control applies the same stopping rule with the fixed-n Wilson interval. Both sequences use the same "
+        "simulated cells (same seed per row).",
         "",
-        "| precision | cap | p | coverage (CS) | +- se | mean runs | share at cap | Wilson coverage (control) | Wilson mean runs |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| precision | cap | p | coverage (CS) | +- se | mean runs | share at cap | coverage (uniform prior) | mean runs (uniform) "
+        "| Wilson coverage (control) | Wilson mean runs |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['precision']:g} | {r['cap']} | {r['p']:g} | {r['coverage']:.4f} | {r['coverage_se']:.4f} | "
-            f"{r['mean_runs']:.1f} | {r['share_capped']:.3f} | {r['wilson_coverage']:.4f} | {r['wilson_mean_runs']:.1f} |"
+            f"{r['mean_runs']:.1f} | {r['share_capped']:.3f} | {r['uniform_coverage']:.4f} | {r['uniform_mean_runs']:.1f} | "
+            f"{r['wilson_coverage']:.4f} | {r['wilson_mean_runs']:.1f} |"
         )
     worst = min(r["coverage"] for r in rows)
+    worst_u = min(r["uniform_coverage"] for r in rows)
     worst_w = min(r["wilson_coverage"] for r in rows)
     lines += [
         "",
-        f"Lowest coverage of the confidence sequence: **{worst:.4f}** (target: at least 0.95 at every p). "
+        f"Lowest coverage of the confidence sequence: **{worst:.4f}** (target: at least 0.95 at every p); "
+        f"with the uniform prior {worst_u:.4f}. "
         f"Lowest of the Wilson control: {worst_w:.4f}. On the figure's grid of 51 p values "
         f"({max(reps // 4, 200):,} cells each): confidence sequence at least {grid_min['confidence-sequence'][0]:.4f} "
-        f"(at p = {grid_min['confidence-sequence'][1]:g}), Wilson control down to {grid_min['wilson'][0]:.4f} "
+        f"(at p = {grid_min['confidence-sequence'][1]:g}; uniform prior {grid_min['confidence-sequence-uniform'][0]:.4f} "
+        f"at p = {grid_min['confidence-sequence-uniform'][1]:g}), Wilson control down to {grid_min['wilson'][0]:.4f} "
         f"(at p = {grid_min['wilson'][1]:g}).",
         "",
         f"![coverage and runs per cell]({fig_name})",
@@ -120,16 +135,18 @@ def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: st
         "## Reading it",
         "",
         "- The confidence sequence covers at every p, and with room: it is valid at *every* run count at once "
-        "(Ville's inequality), so stopping when it is narrow cannot break it. The price is width: at n = 200 "
-        "and p = 0.5 its half-width is 0.115 where Wilson's is 0.069, so a cell near p = 0.5 does not reach "
-        "`precision = 0.1` within 200 runs and stops at the cap.",
-        "- The savings are at the ends: a cell whose runs all climb (or all fail) stops after 29 runs at "
-        "`precision = 0.1` (69 at 0.05), instead of 200. About half of the default study's cells are such cells.",
+        "(Ville's inequality, whatever the prior), so stopping when it is narrow cannot break it. The price is "
+        "width: at n = 200 and p = 0.5 its half-width is 0.120 (0.115 with the uniform prior) where Wilson's is "
+        "0.069, so a cell near p = 0.5 does not reach `precision = 0.1` within 200 runs and stops at the cap.",
+        "- The savings are at the ends: a cell whose runs all climb (or all fail) stops after 21 runs at "
+        "`precision = 0.1` (45 at 0.05), instead of 200; the uniform prior needs 29 (69). About half of the default "
+        "study's cells are such cells. In between, the default prior needs a few runs more than the uniform one "
+        "(the table's p = 0.1 and 0.9 rows).",
         "- Wilson under the same rule stops earlier but is not guaranteed: its coverage falls below 95% for "
         "cells between p of about 0.15 and 0.85 (it stops on a lucky run of one verdict, when its interval is "
         "narrow by chance). A study with "
-        '`precision` therefore reports the confidence sequence (`ci = "confidence-sequence"`, the only choice '
-        "the config accepts with `precision`).",
+        '`precision` therefore reports a confidence sequence (`ci = "confidence-sequence"` or '
+        '`"confidence-sequence-uniform"`, the only choices the config accepts with `precision`).',
         "- Invalid runs (status other than ok) are left out of the interval, as in the maps (`p_success` is "
         "conditional on a valid run); the rule counts valid runs, so a cell with invalid runs uses more runs.",
         "",
@@ -149,7 +166,7 @@ def main() -> None:
     fig = out.with_suffix(".png")
     figure(curves, p_grid, fig)
     grid_min = {}
-    for m in ("confidence-sequence", "wilson"):
+    for m in METHODS:
         cov = np.array([curves[(pr, cap, m)][:, 0] for pr, cap in SETTINGS])
         i, j = np.unravel_index(np.argmin(cov), cov.shape)
         grid_min[m] = (float(cov[i, j]), float(p_grid[j]))

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tumblemc.analysis.confseq import stop_count
+from tumblemc.analysis.confseq import CS_METHODS, stop_count
 from tumblemc.io import open_result
 from tumblemc.model.outcome import is_valid
 
@@ -29,6 +29,7 @@ def compare(fixed: Path, adaptive: Path) -> tuple[list[dict[str, object]], dict[
     fr, fm = open_result(fixed)
     ar, am = open_result(adaptive)
     prec, level, cap = float(ar.attrs["precision"]), float(am["p_success_lower"].attrs["confidence_level"]), 0
+    mixture = CS_METHODS[str(am["p_success_lower"].attrs["ci_method"])]
     rows = []
     dims = am["p_success"].dims  # shape, substrate, incline_deg and any field or frequency sweep
     for idx in np.ndindex(*am["p_success"].shape):
@@ -39,7 +40,7 @@ def compare(fixed: Path, adaptive: Path) -> tuple[list[dict[str, object]], dict[
         asel = asel[np.argsort(ar["sample"].values[asel])]
         cap = max(cap, fsel.size)
         valid = is_valid(fr["status"].values[fsel])
-        j = stop_count(valid, valid & (fr["climbed"].values[fsel] == 1), prec, level) or fsel.size
+        j = stop_count(valid, valid & (fr["climbed"].values[fsel] == 1), prec, level, mixture) or fsel.size
         prefix = asel.size == j and all(
             np.array_equal(ar[c].values[asel], fr[c].values[fsel[:j]], equal_nan=ar[c].dtype.kind == "f") for c in OUTCOME_COLUMNS
         )

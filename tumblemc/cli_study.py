@@ -72,7 +72,7 @@ def add_study_parser(sub: Any) -> None:
 
 def study_header(cfg: Any, path: Path, where: str) -> str:
     """What ``study run`` is about to do: runs, cells, check runs, where, output, a first time estimate."""
-    from tumblemc.analysis.confseq import first_possible_stop
+    from tumblemc.analysis.confseq import CS_METHODS, first_possible_stop
     from tumblemc.study.config import cells
     from tumblemc.study.design import n_check_runs
 
@@ -98,7 +98,8 @@ def study_header(cfg: Any, path: Path, where: str) -> str:
             [
                 f"  adaptive: each cell stops once its {cfg.ci_level:.0%} confidence sequence has a half-width of at most {cfg.precision:g}"
                 " (cells at p = 0 or 1 after about "
-                f"{first_possible_stop(cfg.precision, cfg.ci_level, cfg.samples)} runs); the progress bar's total shrinks as cells close"
+                f"{first_possible_stop(cfg.precision, cfg.ci_level, cfg.samples, CS_METHODS[cfg.ci])} runs); "
+                "the progress bar's total shrinks as cells close"
             ]
             if cfg.precision is not None
             else []

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from tumblemc.analysis.confseq import cs_interval
+from tumblemc.analysis.confseq import CS_METHODS, cs_interval
 from tumblemc.analysis.maps import proportion_ci
 
 
@@ -26,8 +26,8 @@ def interval_table(cap: int, level: float = 0.95, method: str = "confidence-sequ
     ok = k <= n
     lo = np.full(n.shape, np.nan)
     hi = np.full(n.shape, np.nan)
-    if method == "confidence-sequence":
-        a, b = cs_interval(k[ok], n[ok], level)
+    if method in CS_METHODS:
+        a, b = cs_interval(k[ok], n[ok], level, CS_METHODS[method])
     else:
         a, b = proportion_ci(k[ok], n[ok], level, method)
     lo[ok], hi[ok] = a, b

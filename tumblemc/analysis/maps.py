@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtri
 from scipy.stats import beta
 
-from tumblemc.analysis.confseq import cs_interval
+from tumblemc.analysis.confseq import CS_METHODS, cs_interval
 from tumblemc.model.outcome import is_valid
 from tumblemc.schema import CELL_DIMS, CI_METHODS, COORD_ATTRS, MAP_VARIABLES, MAPS_FROM_RUNS_ATTRS, SWEEP_DIMS, annotate
 
@@ -51,12 +51,14 @@ def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str =
         Number of trials, ``n >= 0``; broadcast against ``k``.
     level : float
         Confidence level in (0, 1).
-    method : {"wilson", "clopper-pearson", "confidence-sequence"}
+    method : {"wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-uniform"}
         ``"wilson"``: Wilson score interval without continuity correction;
         ``"clopper-pearson"``: the exact interval (``method="exact"`` of scipy);
         ``"confidence-sequence"``: the anytime-valid beta-binomial mixture interval of
         :func:`tumblemc.analysis.confseq.cs_interval` (the one adaptive sampling stops on;
-        wider than the others at fixed n).
+        wider than the others at fixed n), with the ``"ends"`` prior;
+        ``"confidence-sequence-uniform"``: the same with Robbins' uniform prior (the rule
+        before 2026-11-28).
 
     Returns
     -------
@@ -91,8 +93,8 @@ def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str =
         delta = z / denom * np.sqrt(4.0 * ns * p * (1.0 - p) + z * z)
         lo = center - delta
         hi = center + delta
-    elif method == "confidence-sequence":
-        lo, hi = (np.asarray(b, dtype=np.float64) for b in cs_interval(ks, ns, level))
+    elif method in CS_METHODS:
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in cs_interval(ks, ns, level, CS_METHODS[method]))
     else:
         a = 0.5 * (1.0 - float(level))
         # beta needs positive shape parameters: placeholders where the bound is fixed
@@ -183,7 +185,7 @@ def maps(
         Study results, variables 1-D over ``run`` (see the module docstring).
     level : float
         Confidence level of the interval of ``p_success``.
-    method : {"wilson", "clopper-pearson", "confidence-sequence"}
+    method : {"wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-uniform"}
         Interval method, see :func:`proportion_ci`.
     quantiles : sequence of float
         Quantile levels in [0, 1] of ``progress_ratio_quantile`` (sorted in the output).

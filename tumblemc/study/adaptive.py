@@ -11,7 +11,8 @@ config and the runs' outcomes in sample order, never on round sizes, batch sizes
 or an interruption: ``j`` is the first prefix that qualifies, whichever round found it.
 
 The schedule starts at the fewest runs after which any cell can stop
-(:func:`~tumblemc.analysis.confseq.first_possible_stop`: 29 at precision 0.1, 69 at 0.05)
+(:func:`~tumblemc.analysis.confseq.first_possible_stop`: 21 at precision 0.1, 45 at 0.05
+with the default prior; 29 and 69 with the uniform one)
 and grows by half each round. Because the interval is a confidence sequence, it covers
 ``p`` at the stopping time with probability at least ``ci_level`` (``docs/adaptive.md``
 checks it by simulation); a Wilson interval at a data-dependent stop would not, so a
@@ -28,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from tumblemc.analysis.confseq import first_possible_stop, stop_count
+from tumblemc.analysis.confseq import CS_METHODS, first_possible_stop, stop_count
 from tumblemc.io import StudyStateError
 from tumblemc.model.outcome import is_valid
 from tumblemc.study.checks import ConfigError
@@ -49,13 +50,13 @@ def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: 
             f"sampler={sampler!r} with precision: the stopping rule needs independent runs whose draws do not depend on "
             "how many are drawn (allowed: 'mc')",
         )
-    if ci != "confidence-sequence":
+    if ci not in CS_METHODS:
         raise ConfigError(
             "ci",
             f"ci={ci!r} with precision: a fixed-n interval does not cover at a data-dependent stop "
-            "(allowed: 'confidence-sequence', the default with precision)",
+            "(allowed: 'confidence-sequence', the default with precision, or 'confidence-sequence-uniform')",
         )
-    least = first_possible_stop(precision, level, 10**6)
+    least = first_possible_stop(precision, level, 10**6, CS_METHODS[ci])
     if samples < least:
         raise ConfigError(
             "samples",
@@ -69,7 +70,7 @@ def schedule(cfg: StudyConfig) -> list[int]:
     """Run counts per cell at the end of each round: ``first_possible_stop``, then x1.5, up to ``samples``."""
     assert cfg.precision is not None
     cap = cfg.samples
-    t = min(cap, first_possible_stop(cfg.precision, cfg.ci_level, cap))
+    t = min(cap, first_possible_stop(cfg.precision, cfg.ci_level, cap, CS_METHODS[cfg.ci]))
     out = [t]
     while t < cap:
         t = min(cap, max(t + 1, math.ceil(GROWTH * t)))
@@ -154,7 +155,7 @@ def run_adaptive(
         for c in open_cells:
             idx = c * cap + np.arange(target)
             valid = is_valid(status[idx])
-            j = stop_count(valid, valid & (climbed[idx] == 1), cfg.precision, cfg.ci_level)
+            j = stop_count(valid, valid & (climbed[idx] == 1), cfg.precision, cfg.ci_level, CS_METHODS[cfg.ci])
             reached[c] = target
             if j is not None:
                 kept[c] = j

@@ -49,9 +49,11 @@ precision            adaptive sampling (grid mode, ``mc``): each cell stops at t
                      this, in (0, 0.5); absent: every cell runs ``samples`` runs
 sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
 seed*                root seed, integer >= 0
-ci                   ``"wilson"`` (default), ``"clopper-pearson"`` or
-                     ``"confidence-sequence"`` (the default, and the only choice, with
-                     ``precision``)
+ci                   ``"wilson"`` (default), ``"clopper-pearson"``,
+                     ``"confidence-sequence"`` (the default with ``precision``; its prior
+                     is ``"ends"``, analysis/confseq.py) or
+                     ``"confidence-sequence-uniform"`` (Robbins' uniform prior, the rule
+                     before 2026-11-28); with ``precision`` only the last two
 ci_level             confidence level of the intervals (default 0.95)
 [check]              numerical-error subset re-simulated at ``dt / dt_factor``:
                      ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4); the two
