@@ -256,6 +256,16 @@ def test_plots_say_how_many_runs_each_cell_kept(fixed_and_adaptive: tuple[Path, 
     plt.close(fig)
     paths = plot_study(runs, maps, tmp_path)
     assert all(p.stat().st_size > 10_000 for p in paths)
+    # a cell with invalid runs keeps two detail lines (n and the invalid count on one), so the
+    # panel keeps every cell's interval instead of falling back to probabilities alone
+    bad = maps.copy(deep=True)
+    bad["n_failed"][...] = 0
+    bad["n_failed"].loc[{"incline_deg": 10.0}] = 1
+    fig = plot_success_heatmap(bad)
+    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+    assert any(t.endswith(", 1 inv") and "n=" in t for t in texts)
+    assert sum("\u2013" in t for t in texts) == bad["p_success"].size and not any(t.endswith("*") for t in texts)
+    plt.close(fig)
 
 
 def _fake_store(lose: int) -> tuple[Any, Any, dict[str, int]]:

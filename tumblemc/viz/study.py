@@ -108,8 +108,10 @@ def plot_success_heatmap(
                 ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1.0, 1.0, facecolor="0.85", edgecolor="0.55", hatch="///", lw=0.0))
                 texts.append((i, j, "none\nvalid", "", "0.3"))
                 continue
-            detail = f"{lo[j, i]:.2f}\u2013{hi[j, i]:.2f}" + (f"\n{int(nf[j, i])} invalid" if nf[j, i] > 0 else "")
-            detail += f"\nn={int(nr[j, i])}" if varying else ""
+            # at most two detail lines, so that a cell with invalid runs fits as the others do
+            bad = ([f"{int(nf[j, i])} inv" if varying else f"{int(nf[j, i])} invalid"]) if nf[j, i] > 0 else []
+            extra = ([f"n={int(nr[j, i])}"] if varying else []) + bad
+            detail = f"{lo[j, i]:.2f}\u2013{hi[j, i]:.2f}" + ("\n" + ", ".join(extra) if extra else "")
             texts.append((i, j, f"{p[j, i]:.2f}", detail, "w" if p[j, i] < 0.55 else "k"))
         cells.append((ax, texts))
         ax.set_xticks(np.arange(nx), [f"{v:g}" for v in incl])
@@ -131,7 +133,7 @@ def plot_success_heatmap(
     fig.draw_without_rendering()
     shown = {_annotate_cells(ax, texts, nx, ny, renderer) for ax, texts in cells}
     notes = {
-        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid (left out of P)"
+        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid ('inv', left out of P)"
         + (", runs kept (n)" if np.unique(maps["n_runs"].values).size > 1 else ""),
         "p": f"cells: P(success); * some runs not valid (left out of P); {level:.0%} {method} intervals in success_curves",
     }
@@ -159,7 +161,7 @@ def _annotate_cells(ax: Any, texts: list[tuple[float, float, str, str, str]], nx
                     ax.text(i, j + 0.02, detail, ha="center", va="top", fontsize=CELL_FONT_SMALL, color=colour),
                 ]
             else:
-                top += "*" if "invalid" in detail else ""
+                top += "*" if " inv" in detail else ""
                 size = CELL_FONT if detail else CELL_FONT_SMALL
                 cell = [ax.text(i, j, top, ha="center", va="center", fontsize=size, color=colour)]
             made += cell
