@@ -372,3 +372,16 @@ def test_adaptive_study_on_two_workers_equals_the_serial_one(
     assert_same_result(fixed_and_adaptive[1], out)
     assert calls and all(w == 2 for w, _, _ in calls)
     assert any(single > 0 for _, _, single in calls)  # a round's tail went run by run
+
+
+@pytest.mark.parametrize("p", [0.0, 0.3, 0.97])
+def test_prior_tool_expected_runs_match_simulated_cells(p: float) -> None:
+    """tools/cs_prior.py propagates the stopping count exactly; simulated cells give the same mean."""
+    tool = load_tool("cs_prior")
+    hw = tool.half_width_table(60, "ends")
+    dist = tool.stop_distribution(hw, 0.2, p)
+    assert dist.sum() == pytest.approx(1.0, abs=1e-12)
+    exact = float(dist @ np.arange(61))
+    sim = simulate_coverage(p, 0.2, 60, reps=20_000, seed=5, table=interval_table(60, 0.95))
+    se = max(float(np.sqrt(dist @ (np.arange(61) - exact) ** 2 / 20_000)), 1e-9)
+    assert abs(sim["mean_runs"] - exact) <= 4 * se + 1e-9
