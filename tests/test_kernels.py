@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from hypothesis import strategies as st
 
 from tests import naive
 from tests.naive import block_index, fb_exact, fb_plain, fb_smooth_exact, naive_model, naive_residual
+from tests.tooling import load_tool
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import make_workspace
 from tumblemc.kernels.residual import Problem, fb, fb_smooth, n_unknowns, residual
@@ -807,3 +809,19 @@ def test_run_returns_positions_in_the_callers_frame_after_recentring() -> None:
     assert np.array_equal(start.state[:3], x_end)
     assert np.array_equal(buf.z[6 + L.B_A1 : 6 + L.B_A1 + 3], rec[-1, L.R_ECP : L.R_ECP + 3])
     assert rec[-1, L.R_NIT] / spec.n_steps < 2.0
+
+
+@pytest.mark.slow
+def test_jacobian_pattern_survey_runs_small(tmp_path: Path) -> None:
+    """The small version of tools/jacobian_patterns.py (docs/kernel_experiments.md): every scenario captured and tabled."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, str(root / "tools" / "jacobian_patterns.py"), "--seconds", "0.01"]
+    out = subprocess.run(cmd, check=True, cwd=root, capture_output=True, text=True).stdout
+    rows = [line for line in out.splitlines() if line.startswith("| ") and "scenario" not in line]
+    assert len(rows) == 5 and all(int(r.split("|")[3].replace(",", "")) > 0 for r in rows)
+    tool = load_tool("jacobian_patterns")
+    a = np.array([[0.0, 2.0], [1.0, 1.0]])
+    assert tool.guard_ratio(a, (0, 1)) == 0.0 and tool.guard_ratio(a, (1, 0)) == 1.0
