@@ -60,7 +60,7 @@ def test_cs_closed_form_all_success_and_symmetry() -> None:
     np.testing.assert_allclose(lo, (0.1 / (n + 1)) ** (1 / n), rtol=1e-12)
     assert np.all(hi == 1.0)
     for m in (5, 21, 60):  # the default prior: lower = (alpha I_n)^(1/n), I_n its integral of q^n
-        lo_m, hi_m = cs_interval(m, m, 0.9)
+        lo_m, hi_m = cs_interval(m, m, 0.9, "ends")
         assert lo_m == pytest.approx((0.1 * _slow_marginal(m, m, "ends")) ** (1 / m), rel=1e-9) and hi_m == 1.0
     for mixture in MIXTURES:
         k = np.arange(0, 51)
@@ -75,9 +75,9 @@ def test_cs_closed_form_all_success_and_symmetry() -> None:
 def test_ends_prior_is_narrow_at_the_ends_and_a_little_wider_in_between() -> None:
     """What the default prior buys and what it costs, against Robbins' uniform prior."""
     n = np.arange(5, 1001)
-    assert np.all(half_width(n, n) < half_width(n, n, mixture="uniform"))  # every cell at p = 1 (or 0) stops sooner
-    assert np.all(half_width(n // 2, n) > half_width(n // 2, n, mixture="uniform"))  # p = 1/2: wider
-    assert np.all(half_width(n // 2, n) < 1.06 * half_width(n // 2, n, mixture="uniform"))  # by at most 6%
+    assert np.all(half_width(n, n, mixture="ends") < half_width(n, n, mixture="uniform"))  # every cell at p = 1 (or 0) stops sooner
+    assert np.all(half_width(n // 2, n, mixture="ends") > half_width(n // 2, n, mixture="uniform"))  # p = 1/2: wider
+    assert np.all(half_width(n // 2, n, mixture="ends") < 1.06 * half_width(n // 2, n, mixture="uniform"))  # by at most 6%
 
 
 def test_cs_is_wider_than_wilson_and_shrinks_with_n() -> None:
@@ -90,33 +90,34 @@ def test_cs_is_wider_than_wilson_and_shrinks_with_n() -> None:
 
 
 def test_first_possible_stop_and_schedule() -> None:
-    assert first_possible_stop(0.1) == 21
-    assert half_width(21, 21) <= 0.1 < half_width(20, 20)
-    assert half_width(0, 21) <= 0.1 < half_width(0, 20)
-    assert first_possible_stop(0.05) == 45
-    assert half_width(45, 45) <= 0.05 < half_width(44, 44)
+    assert first_possible_stop(0.1, mixture="ends") == 21
+    assert half_width(21, 21, mixture="ends") <= 0.1 < half_width(20, 20, mixture="ends")
+    assert half_width(0, 21, mixture="ends") <= 0.1 < half_width(0, 20, mixture="ends")
+    assert first_possible_stop(0.05, mixture="ends") == 45
+    assert half_width(45, 45, mixture="ends") <= 0.05 < half_width(44, 44, mixture="ends")
+    assert first_possible_stop(0.1) == 29  # the functions' default: the uniform prior
     assert first_possible_stop(0.1, mixture="uniform") == 29  # (1 - (0.05/30)^(1/29)) / 2 = 0.099 <= 0.1 < the value at 28
     assert half_width(29, 29, mixture="uniform") <= 0.1 < half_width(28, 28, mixture="uniform")
     assert first_possible_stop(0.05, mixture="uniform") == 69
-    cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence"))
+    cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence-ends"))
     assert schedule(cfg) == [21, 32, 48, 72, 108, 162, 200]
-    cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence-uniform"))
+    cfg = load_config(tiny(samples=200, precision=0.1, ci="confidence-sequence"))
     assert schedule(cfg) == [29, 44, 66, 99, 149, 200]
 
 
 def test_stop_count_is_the_first_prefix_and_skips_invalid_runs() -> None:
     ok = np.ones(40, bool)
-    assert stop_count(ok, ok, 0.1) == 21
-    assert stop_count(ok[:20], ok[:20], 0.1) is None
+    assert stop_count(ok, ok, 0.1, mixture="ends") == 21
+    assert stop_count(ok[:20], ok[:20], 0.1, mixture="ends") is None
     assert stop_count(ok, ok, 0.1, mixture="uniform") == 29
     valid = ok.copy()
     valid[[3, 10]] = False  # two invalid runs: 23 runs hold 21 valid ones
-    assert stop_count(valid, valid, 0.1) == 23
+    assert stop_count(valid, valid, 0.1, mixture="ends") == 23
     mixed = np.arange(40) % 2 == 0
-    assert stop_count(ok, mixed, 0.1) is None
+    assert stop_count(ok, mixed, 0.1, mixture="ends") is None
 
 
-@pytest.mark.parametrize("method", ["confidence-sequence", "confidence-sequence-uniform"])
+@pytest.mark.parametrize("method", ["confidence-sequence-ends", "confidence-sequence"])
 @pytest.mark.parametrize("p", [0.0, 0.02, 0.1, 0.5, 0.9, 1.0])
 def test_coverage_at_the_stop_is_at_least_nominal(p: float, method: str) -> None:
     """Small version of tools/adaptive_coverage.py (docs/adaptive.md): 4000 cells per p."""
@@ -124,7 +125,7 @@ def test_coverage_at_the_stop_is_at_least_nominal(p: float, method: str) -> None
     res = simulate_coverage(p, 0.1, 200, reps=4000, seed=7, table=table)
     assert res["coverage"] >= 0.95
     if p in (0.0, 1.0):
-        assert res["mean_runs"] == (21.0 if method == "confidence-sequence" else 29.0)
+        assert res["mean_runs"] == (21.0 if method == "confidence-sequence-ends" else 29.0)
     if p == 0.5:
         assert res["share_capped"] == 1.0  # 0.120 (0.115 uniform) at n = 200: the cap binds
 
@@ -133,30 +134,34 @@ def test_config_rules() -> None:
     d = tiny(precision=0.1, samples=29)
     del d["ci"]
     cfg = load_config(d)
-    assert cfg.ci == "confidence-sequence" and cfg.precision == 0.1
+    assert cfg.ci == "confidence-sequence-ends" and cfg.precision == 0.1
+    # the uniform prior kept its name: a study of the rule before keeps its hash, and one that
+    # left ci out (the uniform rule then) now hashes with the new default, so its shards are refused
+    old = load_config(tiny(precision=0.1, samples=29, ci="confidence-sequence"))
+    assert old.ci == "confidence-sequence" and config_hash(old) != config_hash(cfg)
     assert config_hash(load_config(tiny())) != config_hash(cfg)
     assert '"precision"' not in identity_json(load_config(tiny()))  # older studies keep their hash
     with pytest.raises(ConfigError, match=r"precision=0\.5 .*allowed"):
-        load_config(tiny(samples=29, precision=0.5, ci="confidence-sequence"))
+        load_config(tiny(samples=29, precision=0.5, ci="confidence-sequence-ends"))
     with pytest.raises(ConfigError, match="sampler='lhs' with precision"):
-        load_config(tiny(samples=29, precision=0.1, sampler="lhs", ci="confidence-sequence"))
+        load_config(tiny(samples=29, precision=0.1, sampler="lhs", ci="confidence-sequence-ends"))
     with pytest.raises(ConfigError, match="ci='wilson' with precision"):
         load_config(tiny(samples=29, precision=0.1, ci="wilson"))
     with pytest.raises(ConfigError, match="mode = 'grid'"):
-        load_config(tiny(samples=29, precision=0.1, mode="critical_incline", incline_deg=[0, 10, 20], ci="confidence-sequence"))
+        load_config(tiny(samples=29, precision=0.1, mode="critical_incline", incline_deg=[0, 10, 20], ci="confidence-sequence-ends"))
     with pytest.raises(ConfigError, match=r"samples=20 with precision=0\.1.*allowed: samples >= 21"):
-        load_config(tiny(precision=0.1, samples=20, ci="confidence-sequence"))
-    load_config(tiny(precision=0.1, samples=21, ci="confidence-sequence"))
+        load_config(tiny(precision=0.1, samples=20, ci="confidence-sequence-ends"))
+    load_config(tiny(precision=0.1, samples=21, ci="confidence-sequence-ends"))
     with pytest.raises(ConfigError, match=r"samples=28 with precision=0\.1.*allowed: samples >= 29"):
-        load_config(tiny(precision=0.1, samples=28, ci="confidence-sequence-uniform"))
-    load_config(tiny(precision=0.1, samples=29, ci="confidence-sequence-uniform"))
+        load_config(tiny(precision=0.1, samples=28, ci="confidence-sequence"))
+    load_config(tiny(precision=0.1, samples=29, ci="confidence-sequence"))
     with pytest.raises(ValueError, match="finite"):
         cs_interval(float("nan"), 10)
 
 
 # inclines where the smoke cuboid at 10 Hz has p = 1, about 0.75, about 0.35 and 0
 MIXED: dict[str, Any] = {"incline_deg": [0, 10, 15, 60], "samples": 16}
-ADAPT: dict[str, Any] = {**MIXED, "precision": 0.3, "ci": "confidence-sequence"}
+ADAPT: dict[str, Any] = {**MIXED, "precision": 0.3, "ci": "confidence-sequence-ends"}
 
 
 @pytest.fixture(scope="module")
@@ -175,19 +180,19 @@ def test_adaptive_keeps_the_prefix_the_rule_picks_from_the_fixed_study(fixed_and
         f = fixed.isel(run=np.flatnonzero(fixed["incline_deg"].values == inc))
         a = runs.isel(run=np.flatnonzero(runs["incline_deg"].values == inc))
         valid = is_valid(f["status"].values)
-        j = stop_count(valid, valid & (f["climbed"].values == 1), 0.3) or 16
+        j = stop_count(valid, valid & (f["climbed"].values == 1), 0.3, mixture="ends") or 16
         kept.append(j)
         np.testing.assert_array_equal(a["sample"].values, np.arange(j))
         for v in ("run_key", "progress_ratio", "status", "climbed", "mu", "energy_gain"):
             np.testing.assert_array_equal(a[v].values, f[v].values[:j])
         cell = maps.sel(shape="cuboid", substrate="aluminum", incline_deg=float(inc))
         assert int(cell["n_runs"]) == j
-        lo, hi = cs_interval(int(cell["n_success"]), int(cell["n_valid"]))
+        lo, hi = cs_interval(int(cell["n_success"]), int(cell["n_valid"]), mixture="ends")
         assert float(cell["p_success_lower"]) == lo and float(cell["p_success_upper"]) == hi
-    assert kept[0] == kept[-1] == first_possible_stop(0.3) == 5  # p = 0 and p = 1: the first possible stop at precision 0.3
+    assert kept[0] == kept[-1] == first_possible_stop(0.3, mixture="ends") == 5  # p = 0 and p = 1: the first possible stop at precision 0.3
     assert max(kept[1:3]) > 6  # the mixed cells need more
     assert runs.attrs["runs_kept"] == sum(kept) and runs.attrs["runs_simulated"] >= sum(kept)
-    assert maps["p_success_lower"].attrs["ci_method"] == "confidence-sequence"
+    assert maps["p_success_lower"].attrs["ci_method"] == "confidence-sequence-ends"
     assert np.all(runs["run_key"].values[runs["check_run"].values] == runs["run_key"].values[runs["check_flag"].values == 1])
 
 
@@ -286,7 +291,7 @@ def _fake_store(lose: int) -> tuple[Any, Any, dict[str, int]]:
 
 
 def test_a_run_lost_inside_a_round_is_simulated_again_or_stops_with_one_line() -> None:
-    cfg = load_config(tiny(samples=40, precision=0.1, ci="confidence-sequence"))
+    cfg = load_config(tiny(samples=40, precision=0.1, ci="confidence-sequence-ends"))
     n = 40 * len(cells(cfg))
     read, sim, calls = _fake_store(lose=1)
     redone: list[int] = []
@@ -320,7 +325,7 @@ def test_comparison_tool_keys_cells_by_every_swept_axis(tmp_path: Path) -> None:
     tool = load_tool("adaptive_vs_fixed")
     sweep = {"incline_deg": [0, 15], "field_mT": [10.0, 20.0], "samples": 8}
     run_study(tiny(**sweep), out=tmp_path / "f.nc", progress=False)
-    run_study(tiny(**sweep, precision=0.3, ci="confidence-sequence"), out=tmp_path / "a.nc", progress=False)
+    run_study(tiny(**sweep, precision=0.3, ci="confidence-sequence-ends"), out=tmp_path / "a.nc", progress=False)
     rows, totals = tool.compare(tmp_path / "f.nc", tmp_path / "a.nc")
     assert sorted((r["incline_deg"], r["field_mT"]) for r in rows) == [(0, 10), (0, 20), (15, 10), (15, 20)]
     assert totals["prefix"] == 4 and sum(int(r["kept"]) for r in rows) == totals["kept"]

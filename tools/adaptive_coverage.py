@@ -9,7 +9,7 @@ half-width is at most ``precision``, or at the cap) and the interval reported at
 is checked against ``p`` (:func:`tumblemc.analysis.coverage.simulate_coverage`).
 
 - the confidence sequence (what a study with ``precision`` reports, with its default
-  ``"ends"`` prior and with Robbins' uniform prior, ``ci = "confidence-sequence-uniform"``):
+  ``"ends"`` prior and with Robbins' uniform prior, ``ci = "confidence-sequence"``):
   coverage must be at least the nominal 95% at every ``p``;
 - the control: the same rule with the fixed-n Wilson interval, which has no such guarantee
   under optional stopping.
@@ -29,8 +29,8 @@ from tumblemc.analysis.coverage import interval_table, simulate_coverage
 
 P_ISSUE = (0.0, 0.02, 0.1, 0.5, 0.9, 1.0)
 SETTINGS = ((0.1, 200), (0.05, 200), (0.05, 1000))  # (precision, cap)
-METHODS = ("confidence-sequence", "confidence-sequence-uniform", "wilson")
-STYLE = {"confidence-sequence": "-", "confidence-sequence-uniform": "--", "wilson": ":"}
+METHODS = ("confidence-sequence-ends", "confidence-sequence", "wilson")
+STYLE = {"confidence-sequence-ends": "-", "confidence-sequence": "--", "wilson": ":"}
 
 
 def campaign(reps: int, p_grid: np.ndarray) -> tuple[list[dict[str, float]], dict[tuple[float, int, str], np.ndarray]]:
@@ -40,8 +40,8 @@ def campaign(reps: int, p_grid: np.ndarray) -> tuple[list[dict[str, float]], dic
     for precision, cap in SETTINGS:
         tables = {m: interval_table(cap, 0.95, m) for m in METHODS}
         for i, p in enumerate(P_ISSUE):
-            cs = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["confidence-sequence"])
-            un = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["confidence-sequence-uniform"])
+            cs = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["confidence-sequence-ends"])
+            un = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["confidence-sequence"])
             wi = simulate_coverage(p, precision, cap, reps=reps, seed=100 + i, table=tables["wilson"])
             rows.append(
                 {
@@ -74,7 +74,7 @@ def figure(curves: dict[tuple[float, int, str], np.ndarray], p_grid: np.ndarray,
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     colors = {(0.1, 200): "C0", (0.05, 200): "C1", (0.05, 1000): "C2"}
-    suffix = {"confidence-sequence": "", "confidence-sequence-uniform": " uniform", "wilson": " Wilson"}
+    suffix = {"confidence-sequence-ends": "", "confidence-sequence": " uniform", "wilson": " Wilson"}
     for (precision, cap, m), arr in curves.items():
         label = f"{precision:g}, cap {cap}{suffix[m]}"
         ax1.plot(p_grid, arr[:, 0], STYLE[m], color=colors[(precision, cap)], label=label)
@@ -100,8 +100,8 @@ def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: st
         "",
         "A study with `precision = h` samples each cell until the half-width of its 95% confidence sequence "
         "(a beta-binomial mixture, `tumblemc/analysis/confseq.py`) over its valid runs is at most `h`, "
-        'or until `samples` runs (the cap). The default prior (`ci = "confidence-sequence"`) is half uniform, half '
-        'Beta(0.1, 0.1); `ci = "confidence-sequence-uniform"` is Robbins\' uniform prior, the rule before 2026-11-28. '
+        'or until `samples` runs (the cap). The default prior (`ci = "confidence-sequence-ends"`) is half uniform, half '
+        'Beta(0.1, 0.1); `ci = "confidence-sequence"` is Robbins\' uniform prior, the rule before 2026-11-28. '
         "Each simulated cell below is a sequence of independent Bernoulli(p) runs "
         "(the `mc` sampler's runs are independent); *coverage* is the share of cells whose reported interval holds `p`. "
         "The control applies the same stopping rule with the fixed-n Wilson interval. Both sequences use the same "
@@ -125,9 +125,9 @@ def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: st
         f"Lowest coverage of the confidence sequence: **{worst:.4f}** (target: at least 0.95 at every p); "
         f"with the uniform prior {worst_u:.4f}. "
         f"Lowest of the Wilson control: {worst_w:.4f}. On the figure's grid of 51 p values "
-        f"({max(reps // 4, 200):,} cells each): confidence sequence at least {grid_min['confidence-sequence'][0]:.4f} "
-        f"(at p = {grid_min['confidence-sequence'][1]:g}; uniform prior {grid_min['confidence-sequence-uniform'][0]:.4f} "
-        f"at p = {grid_min['confidence-sequence-uniform'][1]:g}), Wilson control down to {grid_min['wilson'][0]:.4f} "
+        f"({max(reps // 4, 200):,} cells each): confidence sequence at least {grid_min['confidence-sequence-ends'][0]:.4f} "
+        f"(at p = {grid_min['confidence-sequence-ends'][1]:g}; uniform prior {grid_min['confidence-sequence'][0]:.4f} "
+        f"at p = {grid_min['confidence-sequence'][1]:g}), Wilson control down to {grid_min['wilson'][0]:.4f} "
         f"(at p = {grid_min['wilson'][1]:g}).",
         "",
         f"![coverage and runs per cell]({fig_name})",
@@ -145,8 +145,8 @@ def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: st
         "- Wilson under the same rule stops earlier but is not guaranteed: its coverage falls below 95% for "
         "cells between p of about 0.15 and 0.85 (it stops on a lucky run of one verdict, when its interval is "
         "narrow by chance). A study with "
-        '`precision` therefore reports a confidence sequence (`ci = "confidence-sequence"` or '
-        '`"confidence-sequence-uniform"`, the only choices the config accepts with `precision`).',
+        '`precision` therefore reports a confidence sequence (`ci = "confidence-sequence-ends"` or '
+        '`"confidence-sequence"`, the only choices the config accepts with `precision`).',
         "- Invalid runs (status other than ok) are left out of the interval, as in the maps (`p_success` is "
         "conditional on a valid run); the rule counts valid runs, so a cell with invalid runs uses more runs.",
         "",

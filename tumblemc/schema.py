@@ -104,7 +104,7 @@ def annotate(ds: xr.Dataset, schema: dict[str, dict[str, Any]] | None = None) ->
     return ds
 
 
-CI_METHODS = ("wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-uniform")
+CI_METHODS = ("wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-ends")
 
 
 CELL_DIMS = ("shape", "incline_deg", "substrate")

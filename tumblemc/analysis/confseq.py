@@ -22,16 +22,19 @@ minimum at ``k / n``, so ``CS_n`` is an interval; its ends are found by bisectio
 
 The prior decides where the sequence is narrow (:data:`MIXTURES`):
 
-- ``"ends"`` (the default since 2026-11-28, ``ci = "confidence-sequence"``): half the
-  prior is uniform, half is ``Beta(0.1, 0.1)``, which puts a quarter of its mass within
-  1e-3 of 0 and a quarter within 1e-3 of 1. A robustness map has many cells where every
+- ``"ends"`` (``ci = "confidence-sequence-ends"``, adaptive sampling's default since
+  2026-11-28): half the prior is uniform, half is ``Beta(0.1, 0.1)`` (which by itself puts
+  a quarter of its mass within 1e-3 of 0 and a quarter within 1e-3 of 1, so the mixture
+  an eighth at each end). A robustness map has many cells where every
   run climbs or every run fails; this prior stops them after 21 runs at half-width 0.1
   (45 at 0.05) instead of 29 (69), at the price of a slightly wider interval in between
   (half-width 0.120 against 0.115 at ``k = 100, n = 200``). Chosen by the expected runs of
   a cell under a stated mix of cells (half at ``p = 0`` or ``1``, half spread over (0, 1);
   docs/adaptive.md), not fitted to one study's outcomes.
-- ``"uniform"`` (``ci = "confidence-sequence-uniform"``): Robbins' uniform prior, the rule
-  before; all success (``k = n``) then has the closed form ``lower = (alpha / (n + 1))^(1 / n)``.
+- ``"uniform"`` (``ci = "confidence-sequence"``, and the functions' default): Robbins'
+  uniform prior, adaptive sampling's rule before 2026-11-28 (the method name kept its
+  meaning, so earlier results and configs keep theirs); all success (``k = n``) then has
+  the closed form ``lower = (alpha / (n + 1))^(1 / n)``.
 
 :func:`stop_count` is the stopping rule of adaptive sampling (a study's ``precision``):
 the first prefix of a cell's runs, in sample order, at which the half-width of ``CS_n``
@@ -53,9 +56,9 @@ MIXTURES: dict[str, tuple[tuple[float, float, float], ...]] = {
     "ends": ((0.5, 1.0, 1.0), (0.5, 0.1, 0.1)),
     "uniform": ((1.0, 1.0, 1.0),),
 }
-DEFAULT_MIXTURE = "ends"
+DEFAULT_MIXTURE = "uniform"  # of the functions below; a study's ``ci`` chooses its own
 #: The interval methods (``ci`` of a study) that are confidence sequences, and their prior.
-CS_METHODS: dict[str, str] = {"confidence-sequence": "ends", "confidence-sequence-uniform": "uniform"}
+CS_METHODS: dict[str, str] = {"confidence-sequence": "uniform", "confidence-sequence-ends": "ends"}
 
 
 def _components(mixture: str) -> tuple[tuple[float, float, float], ...]:
@@ -138,16 +141,23 @@ def first_possible_stop(precision: float, level: float = 0.95, cap: int = 10**6,
     ``k = n`` (or ``k = 0``, the priors are symmetric) gives the narrowest interval at each
     ``n``, and its lower end has a closed form: ``M_n(p) = I_n / p^n`` with ``I_n`` the
     prior's integral of ``q^n``, so ``lower = (alpha I_n)^(1 / n)``. The answer is the least
-    ``n`` with ``(1 - lower) / 2 <= precision``, at most ``cap``.
+    ``n`` with ``(1 - lower) / 2 <= precision``, at most ``cap`` (searched in blocks of
+    growing size, so that a small answer costs little).
     """
-    n = np.arange(1, cap + 1, dtype=np.float64)
     alpha = 1.0 - float(level)
-    if mixture == "uniform":
-        lower = (alpha / (n + 1.0)) ** (1.0 / n)
-    else:
-        lower = np.exp((np.log(alpha) + _log_marginal(n, n, mixture)) / n)
-    ok = 0.5 * (1.0 - lower) <= float(precision)
-    return int(n[np.argmax(ok)]) if ok.any() else cap
+    start, size = 1, 1024
+    while start <= cap:
+        n = np.arange(start, min(cap, start + size - 1) + 1, dtype=np.float64)
+        if mixture == "uniform":
+            lower = (alpha / (n + 1.0)) ** (1.0 / n)
+        else:
+            lower = np.exp((np.log(alpha) + _log_marginal(n, n, mixture)) / n)
+        ok = 0.5 * (1.0 - lower) <= float(precision)
+        if ok.any():
+            return int(n[np.argmax(ok)])
+        start += size
+        size *= 8
+    return cap
 
 
 def stop_count(valid: ArrayLike, success: ArrayLike, precision: float, level: float = 0.95, mixture: str = DEFAULT_MIXTURE) -> int | None:

@@ -20,7 +20,7 @@ from tumblemc.analysis.confseq import CS_METHODS, cs_interval
 from tumblemc.analysis.maps import proportion_ci
 
 
-def interval_table(cap: int, level: float = 0.95, method: str = "confidence-sequence") -> tuple[np.ndarray, np.ndarray]:
+def interval_table(cap: int, level: float = 0.95, method: str = "confidence-sequence-ends") -> tuple[np.ndarray, np.ndarray]:
     """Interval ends for every ``(n, k)``, ``0 <= k <= n <= cap``: arrays ``[n, k]`` (NaN above the diagonal)."""
     n, k = np.meshgrid(np.arange(cap + 1), np.arange(cap + 1), indexing="ij")
     ok = k <= n
@@ -42,7 +42,7 @@ def simulate_coverage(
     level: float = 0.95,
     reps: int = 10_000,
     seed: int = 0,
-    method: str = "confidence-sequence",
+    method: str = "confidence-sequence-ends",
     table: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Adaptive sampling of ``reps`` Bernoulli(``p``) cells: coverage and runs used.

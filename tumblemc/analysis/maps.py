@@ -51,14 +51,14 @@ def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str =
         Number of trials, ``n >= 0``; broadcast against ``k``.
     level : float
         Confidence level in (0, 1).
-    method : {"wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-uniform"}
+    method : {"wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-ends"}
         ``"wilson"``: Wilson score interval without continuity correction;
         ``"clopper-pearson"``: the exact interval (``method="exact"`` of scipy);
         ``"confidence-sequence"``: the anytime-valid beta-binomial mixture interval of
-        :func:`tumblemc.analysis.confseq.cs_interval` (the one adaptive sampling stops on;
-        wider than the others at fixed n), with the ``"ends"`` prior;
-        ``"confidence-sequence-uniform"``: the same with Robbins' uniform prior (the rule
-        before 2026-11-28).
+        :func:`tumblemc.analysis.confseq.cs_interval` with Robbins' uniform prior (wider
+        than the others at fixed n; what adaptive sampling stopped on before 2026-11-28);
+        ``"confidence-sequence-ends"``: the same with the ``"ends"`` prior (adaptive
+        sampling's default since then).
 
     Returns
     -------
@@ -185,7 +185,7 @@ def maps(
         Study results, variables 1-D over ``run`` (see the module docstring).
     level : float
         Confidence level of the interval of ``p_success``.
-    method : {"wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-uniform"}
+    method : {"wilson", "clopper-pearson", "confidence-sequence", "confidence-sequence-ends"}
         Interval method, see :func:`proportion_ci`.
     quantiles : sequence of float
         Quantile levels in [0, 1] of ``progress_ratio_quantile`` (sorted in the output).

@@ -54,7 +54,7 @@ def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: 
         raise ConfigError(
             "ci",
             f"ci={ci!r} with precision: a fixed-n interval does not cover at a data-dependent stop "
-            "(allowed: 'confidence-sequence', the default with precision, or 'confidence-sequence-uniform')",
+            "(allowed: 'confidence-sequence-ends', the default with precision, or 'confidence-sequence')",
         )
     least = first_possible_stop(precision, level, 10**6, CS_METHODS[ci])
     if samples < least:

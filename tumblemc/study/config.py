@@ -45,15 +45,15 @@ early_decision       ``true`` (default): stop a run once an energy bound shows t
 samples*             runs per cell, integer >= 1 (with ``precision``: the most per cell)
 precision            adaptive sampling (grid mode, ``mc``): each cell stops at the first
                      run count at which the half-width of its anytime-valid interval
-                     (``ci = "confidence-sequence"``, analysis/confseq.py) is at most
+                     (``ci``, a confidence sequence, analysis/confseq.py) is at most
                      this, in (0, 0.5); absent: every cell runs ``samples`` runs
 sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
 seed*                root seed, integer >= 0
 ci                   ``"wilson"`` (default), ``"clopper-pearson"``,
-                     ``"confidence-sequence"`` (the default with ``precision``; its prior
-                     is ``"ends"``, analysis/confseq.py) or
-                     ``"confidence-sequence-uniform"`` (Robbins' uniform prior, the rule
-                     before 2026-11-28); with ``precision`` only the last two
+                     ``"confidence-sequence"`` (Robbins' uniform prior; the rule of
+                     adaptive studies before 2026-11-28) or ``"confidence-sequence-ends"``
+                     (the default with ``precision``: the ``"ends"`` prior,
+                     analysis/confseq.py); with ``precision`` only the last two
 ci_level             confidence level of the intervals (default 0.95)
 [check]              numerical-error subset re-simulated at ``dt / dt_factor``:
                      ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4); the two
@@ -411,7 +411,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     sampler = check_choice("sampler", d.get("sampler", "mc"), SAMPLERS)
     seed = check_int("seed", req("seed", "an integer >= 0"), 0, 2**63 - 1)
     precision = None if d.get("precision") is None else check_num("precision", d["precision"], 0.0, 0.5, lo_open=True, hi_open=True)
-    ci = check_choice("ci", d.get("ci", "wilson" if precision is None else "confidence-sequence"), CI_METHODS)
+    ci = check_choice("ci", d.get("ci", "wilson" if precision is None else "confidence-sequence-ends"), CI_METHODS)
     ci_level = check_num("ci_level", d.get("ci_level", 0.95), 0.5, 1.0, hi_open=True)
     if precision is not None:
         check_adaptive(mode, sampler, ci, precision, samples, ci_level)

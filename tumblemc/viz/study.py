@@ -133,7 +133,7 @@ def plot_success_heatmap(
     fig.draw_without_rendering()
     shown = {_annotate_cells(ax, texts, nx, ny, renderer) for ax, texts in cells}
     notes = {
-        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid ('inv', left out of P)"
+        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid (left out of P; 'inv' next to n)"
         + (", runs kept (n)" if np.unique(maps["n_runs"].values).size > 1 else ""),
         "p": f"cells: P(success); * some runs not valid (left out of P); {level:.0%} {method} intervals in success_curves",
     }
