@@ -132,9 +132,10 @@ def plot_success_heatmap(
     renderer = FigureCanvasAgg(fig).get_renderer()
     fig.draw_without_rendering()
     shown = {_annotate_cells(ax, texts, nx, ny, renderer) for ax, texts in cells}
+    kept_n = np.unique(maps["n_runs"].values).size > 1  # adaptive: n per cell, and 'inv' beside it
     notes = {
-        "full": f"cells: P(success), its {level:.0%} {method} interval, runs not valid (left out of P; 'inv' next to n)"
-        + (", runs kept (n)" if np.unique(maps["n_runs"].values).size > 1 else ""),
+        "full": f"cells: P(success), its {level:.0%} {method} interval, "
+        + ("runs kept (n) and runs not valid ('inv', left out of P)" if kept_n else "runs not valid (left out of P)"),
         "p": f"cells: P(success); * some runs not valid (left out of P); {level:.0%} {method} intervals in success_curves",
     }
     words = "; ".join(notes[k] for k in ("full", "p") if k in shown)
