@@ -254,6 +254,7 @@ def test_plots_say_how_many_runs_each_cell_kept(fixed_and_adaptive: tuple[Path, 
     fig = plot_success_heatmap(maps)
     texts = [t.get_text() for ax in fig.axes for t in ax.texts]
     assert any("n=5" in t for t in texts) and "runs kept (n)" in fig._suptitle.get_text()  # type: ignore[union-attr]
+    assert "confidence-sequence (ends prior) interval" in fig._suptitle.get_text()  # type: ignore[union-attr]
     plt.close(fig)
     fixed_maps = open_result(fixed_and_adaptive[0])[1]
     fig = plot_success_heatmap(fixed_maps)  # every cell 16 runs: no n

@@ -40,6 +40,19 @@ def _check_ci_args(level: float, method: str) -> None:
         raise ValueError(f"method must be one of {CI_METHODS}, got {method!r}")
 
 
+CI_LABELS = {
+    "wilson": "Wilson",
+    "clopper-pearson": "Clopper-Pearson",
+    "confidence-sequence": "confidence-sequence (uniform prior)",
+    "confidence-sequence-ends": "confidence-sequence (ends prior)",
+}
+
+
+def ci_label(method: str) -> str:
+    """How plots name an interval method (``ci_method`` of a map); unknown names as they are."""
+    return CI_LABELS.get(str(method), str(method))
+
+
 def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str = "wilson") -> tuple[Any, Any]:
     """Two-sided confidence interval of a binomial proportion, vectorised.
 

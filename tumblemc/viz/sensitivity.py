@@ -17,7 +17,7 @@ import xarray as xr
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from tumblemc.analysis.maps import decided_early_mask, proportion_ci
+from tumblemc.analysis.maps import ci_label, decided_early_mask, proportion_ci
 from tumblemc.analysis.prim import PrimResult
 from tumblemc.analysis.screening import cell_mask, uncertain_parameters, valid_mask
 from tumblemc.viz.style import CMAP, panel_grid, save_figure
@@ -176,9 +176,8 @@ def plot_success_vs_parameter(
             right.legend(fontsize=7, frameon=False, title="incline", title_fontsize=7)
     where = f"{shape} on {substrate}" + (f", incline {float(incline_deg):g} deg" if incline_deg is not None else "")
     early_note = "; open triangles: decided early (censored)" if np.any(mask & early & valid) else ""
-    fig.suptitle(
-        f"{where}: dots {outcome} of valid runs{early_note}; lines fraction climbed per bin ({level:.0%} {method} band)", fontsize=9
-    )
+    band = f"{level:.0%} {ci_label(method)} band"
+    fig.suptitle(f"{where}: dots {outcome} of valid runs{early_note}; lines fraction climbed per bin ({band})", fontsize=9)
     save_figure(fig, path)
     return fig
 

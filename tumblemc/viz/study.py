@@ -27,7 +27,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from tumblemc.analysis.maps import check_summary, check_words, early_words
+from tumblemc.analysis.maps import check_summary, check_words, ci_label, early_words
 from tumblemc.schema import SWEEP_DIMS
 from tumblemc.viz.ratio import plot_ratio_distribution
 from tumblemc.viz.style import CMAP, MAX_FIG_W, panel_grid, panel_title, save_figure, sweep_rows
@@ -123,7 +123,7 @@ def plot_success_heatmap(
             ax.set_ylabel("shape")
         ax.set_title(panel_title(sub, row), fontsize=10)
     level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
-    method = maps["p_success_lower"].attrs.get("ci_method", "?")
+    method = ci_label(maps["p_success_lower"].attrs.get("ci_method", "?"))
     if mesh is not None:
         cb = fig.colorbar(mesh, ax=list(axes.ravel()), shrink=0.9)
         cb.set_label("P(success) of valid runs", fontsize=9)
@@ -215,8 +215,8 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
             if r == 0 and c == 0:
                 ax.legend(fontsize=8, frameon=False, title="shape", title_fontsize=8)
     level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
-    method = maps["p_success_lower"].attrs.get("ci_method", "?")
-    fig.suptitle(f"success probability of valid runs; bands: {level:.0%} {method} confidence interval", fontsize=9)
+    method = ci_label(maps["p_success_lower"].attrs.get("ci_method", "?"))
+    fig.suptitle(f"success probability of valid runs; bands: {level:.0%} {method} interval", fontsize=9)
     save_figure(fig, path)
     return fig
 
