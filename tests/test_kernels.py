@@ -825,3 +825,5 @@ def test_jacobian_pattern_survey_runs_small(tmp_path: Path) -> None:
     tool = load_tool("jacobian_patterns")
     a = np.array([[0.0, 2.0], [1.0, 1.0]])
     assert tool.guard_ratio(a, (0, 1)) == 0.0 and tool.guard_ratio(a, (1, 0)) == 1.0
+    assert tool.group_guard(a, {}, [0, 1]) == 1.0  # every pivot free: partial pivoting, ratio 1
+    assert tool.group_guard(a, {0: 0}, [1]) == 0.0 and tool.group_guard(a, {0: 1}, [0]) == 1.0
