@@ -22,12 +22,12 @@ table on 2026-11-28 (docs/adaptive.md, "The prior").
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 import numpy as np
 
 from tumblemc.analysis import confseq
+from tumblemc.study.adaptive import rounds
 
 CANDIDATES: dict[str, tuple[tuple[float, float, float], ...]] = {
     "uniform": ((1.0, 1.0, 1.0),),
@@ -51,11 +51,8 @@ def half_width_table(cap: int, mixture: str) -> np.ndarray:
 
 
 def schedule(first: int, cap: int) -> np.ndarray:
-    t, out = first, [first]
-    while t < cap:
-        t = min(cap, max(t + 1, math.ceil(1.5 * t)))
-        out.append(t)
-    return np.array(out)
+    """The engine's round ends (:func:`tumblemc.study.adaptive.rounds`) as an array."""
+    return np.array(rounds(first, cap))
 
 
 def stop_distribution(hw: np.ndarray, precision: float, p: float) -> np.ndarray:

@@ -100,17 +100,7 @@ def capture(kw: dict[str, object], path: Path) -> list[tuple[np.ndarray, tuple[i
 
 def guard_ratio(a: np.ndarray, order: tuple[int, ...]) -> float:
     """Smallest ``|pivot| / max |candidates|`` of elimination in the static row order ``order``."""
-    a = a[list(order)].copy()
-    n = a.shape[0]
-    ratio = np.inf
-    for k in range(n):
-        m = float(np.abs(a[k:, k]).max())
-        if a[k, k] == 0.0 or m == 0.0:
-            return 0.0
-        ratio = min(ratio, abs(a[k, k]) / m)
-        a[k + 1 :, k] /= a[k, k]
-        a[k + 1 :, k + 1 :] -= np.outer(a[k + 1 :, k], a[k, k + 1 :])
-    return float(ratio)
+    return group_guard(a, dict(enumerate(order)), [])
 
 
 def group_guard(a: np.ndarray, fixed: dict[int, int], free_rows: list[int]) -> float:

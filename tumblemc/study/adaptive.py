@@ -66,16 +66,21 @@ def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: 
         )
 
 
-def schedule(cfg: StudyConfig) -> list[int]:
-    """Run counts per cell at the end of each round: ``first_possible_stop``, then x1.5, up to ``samples``."""
-    assert cfg.precision is not None
-    cap = cfg.samples
-    t = min(cap, first_possible_stop(cfg.precision, cfg.ci_level, cap, CS_METHODS[cfg.ci]))
+def rounds(first: int, cap: int) -> list[int]:
+    """Run counts per cell at the end of each round: ``first`` (at most ``cap``), then x1.5, up to ``cap``."""
+    t = min(cap, first)
     out = [t]
     while t < cap:
         t = min(cap, max(t + 1, math.ceil(GROWTH * t)))
         out.append(t)
     return out
+
+
+def schedule(cfg: StudyConfig) -> list[int]:
+    """The rounds of a study: from ``first_possible_stop`` of its precision and interval, up to ``samples``."""
+    assert cfg.precision is not None
+    cap = cfg.samples
+    return rounds(first_possible_stop(cfg.precision, cfg.ci_level, cap, CS_METHODS[cfg.ci]), cap)
 
 
 @dataclass(frozen=True)

@@ -90,6 +90,7 @@ def plot_success_heatmap(
     side = len(subs) * panel_w + 1.2 <= MAX_FIG_W
     fig, axes = panel_grid(len(rows) * (1 if side else len(subs)), len(subs) if side else 1, panel_w, panel_h)
     norm = Normalize(0.0, 1.0)
+    varying = np.unique(maps["n_runs"].values).size > 1  # adaptive sampling: say how many runs each cell kept
     mesh = None
     cells: list[tuple[Any, list[tuple[float, float, str, str, str]]]] = []
     for (r, row), (c, sub) in itertools.product(enumerate(rows), enumerate(subs)):
@@ -98,7 +99,6 @@ def plot_success_heatmap(
         p = m["p_success"].values
         lo, hi = m["p_success_lower"].values, m["p_success_upper"].values
         nv, nf, nr = m["n_valid"].values, m["n_failed"].values, m["n_runs"].values
-        varying = np.unique(maps["n_runs"].values).size > 1  # adaptive sampling: say how many runs each cell kept
         mesh = ax.pcolormesh(
             np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, np.ma.masked_invalid(p), cmap=CMAP, norm=norm, edgecolors="w", linewidth=0.5
         )
@@ -132,10 +132,9 @@ def plot_success_heatmap(
     renderer = FigureCanvasAgg(fig).get_renderer()
     fig.draw_without_rendering()
     shown = {_annotate_cells(ax, texts, nx, ny, renderer) for ax, texts in cells}
-    kept_n = np.unique(maps["n_runs"].values).size > 1  # adaptive: n per cell, and 'inv' beside it
     notes = {
         "full": f"cells: P(success), its {level:.0%} {method} interval, "
-        + ("runs kept (n) and runs not valid ('inv', left out of P)" if kept_n else "runs not valid (left out of P)"),
+        + ("runs kept (n) and runs not valid ('inv', left out of P)" if varying else "runs not valid (left out of P)"),
         "p": f"cells: P(success); * some runs not valid (left out of P); {level:.0%} {method} intervals in success_curves",
     }
     words = "; ".join(notes[k] for k in ("full", "p") if k in shown)
