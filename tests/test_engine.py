@@ -503,3 +503,73 @@ def test_cell_cost_is_runs_times_the_cells_mean_iterations() -> None:
     assert cost(eng.Task("main", "k", "cuboid", (6,), ({},), grid)) == 7.0  # type: ignore[arg-type]
     assert cost(eng.Task("main", "k", "cuboid", (12, 13), ({}, {}), grid)) == 0.0  # type: ignore[arg-type]
     assert eng.cell_cost({}, 5)(eng.Task("main", "k", "cuboid", (0,), ({},), grid)) == 0.0  # type: ignore[arg-type]
+
+
+STRICT = {"fraction": 0.02, "min_runs": 2, "dt_factor": 2, "ratio_abs_tol": 0.0, "ratio_rel_tol": 0.0}
+
+
+def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> None:
+    """Each check run outside the ratio tolerance is simulated again with the magnetisation x (1 +- twin_rel).
+
+    The twins' ratios are those of ``simulate`` with that magnetisation (the obvious twin),
+    the spread is their larger move, and the class says whether it reaches the dt
+    difference. ``twin_rel = 0`` turns them off.
+    """
+    from tumblemc import simulate, summarize
+    from tumblemc.model.params import PRESETS
+    from tumblemc.study.design import design, run_kwargs
+
+    out = tmp_path / "strict.nc"
+    run_study(tiny(check=STRICT), out=out, progress=False)
+    runs, _ = open_result(out)
+    within = runs["check_ratio_within_tol"].values
+    assert (within == 0).any()  # a zero tolerance: ratios at dt and dt / 2 differ
+    cfg = load_config(tiny(check=STRICT))
+    des = design(cfg)
+    sel = runs["check_run"].values
+    spread, sens = runs["check_twin_spread"].values, runs["check_sensitive"].values
+    for k in range(sel.size):
+        if within[k] != 0:
+            assert np.isnan(spread[k]) and sens[k] == -1
+            continue
+        r = int(sel[k])
+        kw = run_kwargs(cfg, des.isel(run=r))
+        m = kw.get("magnetization", PRESETS[kw["preset"]].magnetization)  # the sampled one, else the preset's
+        moves = [
+            abs(
+                float(summarize(simulate(**{**kw, "magnetization": m * (1 + s * 1e-6)}))["progress_ratio"])
+                - runs["progress_ratio"].values[r]
+            )
+            for s in (1, -1)
+        ]
+        assert spread[k] == pytest.approx(max(moves), rel=1e-12, abs=1e-15)  # the window summed in another order
+        assert sens[k] == int(max(moves) >= abs(runs["check_ratio_diff"].values[k]))
+    assert runs.attrs["check_n_sensitive"] + runs.attrs["check_n_dt_limited"] == np.count_nonzero(within == 0)
+    words = study_status(out)["dt_check"]
+    assert "limited by dt" in words and "sensitive" in words
+    off = tmp_path / "off.nc"
+    run_study(tiny(check={**STRICT, "twin_rel": 0.0}), out=off, progress=False)
+    r0, _ = open_result(off)
+    assert "check_sensitive" not in r0.variables and "limited by dt" not in study_status(off)["dt_check"]
+    for bad in (-1.0, 1e-13, 0.5):
+        with pytest.raises(ConfigError, match="check.twin_rel"):
+            load_config(tiny(check={"twin_rel": bad}))
+
+
+def test_twin_sensitivity_classes() -> None:
+    """Sensitive when the twins move the ratio at least as far as the finer dt; unclassified without valid twins."""
+    from tumblemc.study.assemble import twin_sensitivity
+
+    ratio = np.array([1.0, 1.0, 1.0, 1.0, 1.0])
+    twins = {
+        "twin_ratio_up": np.array([1.5, 1.01, 1.5, 1.5, np.nan]),
+        "twin_ratio_down": np.array([0.9, 0.98, 0.2, 1.0, np.nan]),
+        "twin_status_up": np.array([0, 0, 1, 0, -1]),
+        "twin_status_down": np.array([0, 0, 0, 0, -1]),
+    }
+    diff = np.array([-0.5, 0.3, 0.3, 0.01, 0.3])
+    within = np.array([0, 0, 0, 1, 0], dtype=np.int8)
+    spread, sens = twin_sensitivity(ratio, twins, diff, within)
+    np.testing.assert_array_equal(sens, [1, 0, -1, -1, -1])
+    np.testing.assert_allclose(spread[:2], [0.5, 0.02])
+    assert np.isnan(spread[2:]).all()

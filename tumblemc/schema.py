@@ -370,6 +370,22 @@ GRID_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
         "flag_values": np.array([-1, 0, 1], dtype=np.int8),
         "flag_meanings": "not_compared no yes",
     },
+    "check_twin_spread": {
+        "units": "1",
+        "long_name": (
+            "largest move of the progress ratio at dt when the magnetisation is changed by +- check_twin_rel"
+            " (only for check runs outside the ratio tolerance; NaN elsewhere)"
+        ),
+    },
+    "check_sensitive": {
+        "units": "1",
+        "long_name": (
+            "a check run outside the ratio tolerance whose twins moved its ratio at least as far as the finer dt did"
+            " (sensitive: no dt resolves its ratio) or not (limited by dt)"
+        ),
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+        "flag_meanings": "not_classified dt_limited sensitive",
+    },
     "check": {"units": "1", "long_name": "index of a numerical-check run"},
     "run": {"units": "1", "long_name": "run index (the design's order: cell by cell, sample fastest)"},
 }

@@ -166,7 +166,31 @@ def study_summary(runs: xr.Dataset) -> dict[str, Any]:
         )
         if within is not None:
             out["check_ok_outside_tol"] = int(np.count_nonzero(both_ok & ~within))
+        if "check_sensitive" in runs.variables:
+            sens = runs["check_sensitive"].values
+            out.update(check_outside_sensitive=int(np.count_nonzero(sens == 1)), check_outside_dt_limited=int(np.count_nonzero(sens == 0)))
     return out
+
+
+def outside_table(runs: xr.Dataset) -> list[dict[str, Any]]:
+    """One row per valid check run outside the dt tolerance: its cell, ratios at both steps, the twins' spread and class."""
+    if "check_ratio_within_tol" not in runs.variables:
+        return []
+    idx = runs["check_run"].values.astype(int)
+    sens = runs["check_sensitive"].values if "check_sensitive" in runs.variables else np.full(idx.size, -1)
+    spread = runs["check_twin_spread"].values if "check_twin_spread" in runs.variables else np.full(idx.size, np.nan)
+    rows = []
+    for k in np.flatnonzero(runs["check_ratio_within_tol"].values == 0):
+        i = int(idx[k])
+        r: dict[str, Any] = {"run": i}
+        for c in ("shape", "substrate", "incline_deg", "freq_hz"):
+            r[c] = runs[c].values[i].item()
+        r["ratio at dt"] = float(runs["progress_ratio"].values[i])
+        r["ratio at dt / 4"] = float(runs["check_progress_ratio_fine"].values[k])
+        r["twins' spread"] = float(spread[k])
+        r["class"] = {1: "sensitive", 0: "limited by dt"}.get(int(sens[k]), "not classified")
+        rows.append(r)
+    return rows
 
 
 def invalid_table(runs: xr.Dataset) -> list[dict[str, Any]]:
@@ -224,6 +248,15 @@ def _figure(runs: xr.Dataset, three_d: list[dict[str, Any]], path: Path) -> None
         ax2.axhline(0.5, color="gray", ls=":", lw=0.8)
         ax2.axvline(0.5, color="gray", ls=":", lw=0.8)
         ax2.scatter(coarse[both_ok], fine[both_ok], s=14, label="both ok")
+        if "check_sensitive" in runs.variables:  # the runs outside the tolerance, by the twins' class
+            sens = runs["check_sensitive"].values
+            for code, style, label in (
+                (0, dict(marker="s", edgecolor="tab:orange"), "outside tolerance: limited by dt"),
+                (1, dict(marker="D", edgecolor="tab:purple"), "outside tolerance: sensitive"),
+            ):
+                m = sens == code
+                if m.any():
+                    ax2.scatter(coarse[m], fine[m], s=60, facecolor="none", lw=1.4, label=label, **style)
         if (~both_ok).any():
             ax2.scatter(coarse[~both_ok], fine[~both_ok], s=18, marker="x", color="tab:red", label="a run not valid")
         ax2.set_xscale("symlog", linthresh=1.0)
@@ -288,7 +321,16 @@ def write_report(
         )
         if "check_ok_outside_tol" in s:
             line += f"; valid runs outside the dt tolerance: {s['check_ok_outside_tol']}"
+        if "check_outside_sensitive" in s:
+            line += (
+                f" ({s['check_outside_dt_limited']} limited by dt, {s['check_outside_sensitive']} sensitive: a change of"
+                f" {runs.attrs.get('check_twin_rel', math.nan):g} in the magnetisation moves their ratio at dt as far as dt / 4 does)"
+            )
         lines.append(line)
+        outside = outside_table(runs)
+        if outside:
+            lines += ["", "Valid runs outside the dt tolerance, with the sensitivity twins' class (docs/studies.md, the dt check):", ""]
+            lines.append(_md_table(outside).rstrip("\n"))
     lines += ["", "![energy ledger and dt check](stress.png)", "", "### Runs that are not valid, by class", ""]
     classes: dict[str, int] = {}
     for r in inv:

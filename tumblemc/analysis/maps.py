@@ -448,6 +448,8 @@ def check_words(runs: xr.Dataset, where: str = "the result file", worst: int = 3
     "dt converged in 95% of checked runs (55 of 58 valid at both steps); 3 runs differ
     (|ratio at dt/4 - ratio at dt| > 0.05 + 0.1 |ratio at dt/4|): run 122 (cuboid, aluminum,
     70 deg: -9847 vs -6170), ...; all in <where>, runs group, check_ratio_within_tol == 0".
+    With the sensitivity twins (``check_sensitive``) it says how many of those runs are
+    limited by dt and how many are sensitive, and lists the ones limited by dt first.
     """
     if "check_ratio_within_tol" not in runs.variables:
         return None
@@ -464,16 +466,29 @@ def check_words(runs: xr.Dataset, where: str = "the result file", worst: int = 3
         return text + "; none differs beyond tolerance"
     a = runs.attrs
     diff = np.abs(np.asarray(runs["check_ratio_diff"].values))
-    order = bad[np.argsort(-diff[bad])][:worst]
     fine = np.asarray(runs["check_progress_ratio_fine"].values)
     coarse = np.asarray(runs["progress_ratio"].values)
+    sens = np.asarray(runs["check_sensitive"].values) if "check_sensitive" in runs.variables else np.full(flag.size, -1)
+    # the runs limited by dt first (a smaller dt would change their ratio), then the sensitive ones
+    order = bad[np.lexsort((-diff[bad], sens[bad] == 1))][:worst]
     items = []
     for k in order:
         r = int(sel[k])
         cell = ", ".join(str(runs[c].values[r]) for c in ("shape", "substrate") if c in runs.variables)
         inc = f", {float(runs['incline_deg'].values[r]):g} deg" if "incline_deg" in runs.variables else ""
-        items.append(f"run {r} ({cell}{inc}: {coarse[r]:.4g} vs {fine[k]:.4g})")
+        tag = ", sensitive" if sens[k] == 1 else ""
+        items.append(f"run {r} ({cell}{inc}: {coarse[r]:.4g} vs {fine[k]:.4g}{tag})")
     fac, at, rt = (a.get(k, "?") for k in ("check_dt_factor", "check_ratio_abs_tol", "check_ratio_rel_tol"))
+    fac, at, rt = (f"{v:g}" if isinstance(v, (int, float, np.number)) else v for v in (fac, at, rt))
     tol = f"|ratio at dt/{fac} - ratio at dt| > {at} + {rt} x |fine|"
     more = "" if bad.size <= worst else f" and {bad.size - worst} more"
-    return f"{text}; {bad.size} runs differ ({tol}): {'; '.join(items)}{more}; all in {where}, runs group, check_ratio_within_tol == 0"
+    classes = ""
+    if "check_sensitive" in runs.variables:
+        n_s, n_d = int(np.count_nonzero(sens == 1)), int(np.count_nonzero(sens == 0))
+        n_u = bad.size - n_s - n_d
+        classes = (
+            f"{n_d} limited by dt, {n_s} sensitive (a change of {a.get('check_twin_rel', '?'):g} in the magnetisation"
+            f" moves the ratio at dt as far: no dt resolves it){f', {n_u} not classified (a twin invalid)' if n_u else ''}; "
+        )
+    listed = f"{'; '.join(items)}{more}"
+    return f"{text}; {bad.size} runs differ ({tol}): {classes}{listed}; all in {where}, runs group, check_ratio_within_tol == 0"

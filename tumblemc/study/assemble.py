@@ -123,6 +123,50 @@ def _audit(runs: xr.Dataset, check_idx: np.ndarray, check: dict[str, np.ndarray]
     return out
 
 
+def ratio_within(cfg: StudyConfig, coarse: dict[str, np.ndarray], fine: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The dt check's ratio comparison of check runs: ``(fine - coarse ratio, within)``.
+
+    ``coarse``: ``status``, ``progress_ratio`` and ``decided_early`` of the runs at the study
+    dt; ``fine``: ``status`` and ``progress_ratio`` at ``dt / dt_factor``. ``within`` is 1
+    where ``|diff| <= ratio_abs_tol + ratio_rel_tol |fine|``, 0 where not, -1 where not
+    compared: a run invalid at either step, or stopped by an early decision (its ratio is
+    censored: its verdict is compared, not its ratio; the planned check runs run to the
+    end, an adaptive study's may not). ``diff`` is NaN where censored.
+    """
+    compared = (np.asarray(fine["status"]) == 0) & (np.asarray(coarse["status"]) == 0)
+    censored = np.asarray(coarse["decided_early"]) == 1
+    fine_ratio = np.asarray(fine["progress_ratio"], dtype=np.float64)
+    diff = np.where(censored, np.nan, fine_ratio - np.asarray(coarse["progress_ratio"], dtype=np.float64))
+    tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(fine_ratio)
+    with np.errstate(invalid="ignore"):
+        within = np.where(compared & ~censored, (np.abs(diff) <= tol).astype(np.int8), -1).astype(np.int8)
+    return diff, within
+
+
+#: columns of the sensitivity twins, carried in the check runs' outcomes (NaN and -1 where not simulated)
+TWIN_COLUMNS = ("twin_ratio_up", "twin_ratio_down", "twin_status_up", "twin_status_down")
+
+
+def twin_sensitivity(
+    ratio: np.ndarray, twins: dict[str, np.ndarray], diff: np.ndarray, within: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Whether the dt difference of a check run outside tolerance is its sensitivity: ``(spread, sensitive)``.
+
+    ``spread`` is the larger move of the ratio at the study dt when the magnetisation is
+    changed by ``+- check.twin_rel`` (NaN where the twins were not simulated or either is
+    invalid). ``sensitive`` is 1 where ``spread >= |diff|`` (a change far below any
+    measurement moves the ratio as far as the finer step did, so no dt resolves it),
+    0 where not (the ratio is limited by dt), -1 where not classified (within tolerance,
+    not compared, or no valid twins).
+    """
+    ok = (np.asarray(twins["twin_status_up"]) == 0) & (np.asarray(twins["twin_status_down"]) == 0) & (within == 0)
+    with np.errstate(invalid="ignore"):
+        spread = np.maximum(np.abs(twins["twin_ratio_up"] - ratio), np.abs(twins["twin_ratio_down"] - ratio))
+        spread = np.where(ok, spread, np.nan)
+        sensitive = np.where(ok, (spread >= np.abs(diff)).astype(np.int8), -1).astype(np.int8)
+    return spread, sensitive
+
+
 def assemble_runs(
     cfg: StudyConfig, des: xr.Dataset, main: dict[str, np.ndarray], check_idx: np.ndarray, check: dict[str, np.ndarray]
 ) -> xr.Dataset:
@@ -146,14 +190,9 @@ def assemble_runs(
         agree = np.where(compared, (fine_climbed == runs["climbed"].values[check_idx]).astype(np.int8), -1).astype(np.int8)
         runs["check_agree"] = ("check", agree)
         runs["check_agree"].attrs.update(GRID_CHECK_VARIABLES["check_agree"])
-        # a run stopped by an early decision has a censored ratio: its verdict is compared, not
-        # its ratio (the planned check runs run to the end; an adaptive study's may not)
-        censored = runs["decided_early"].values[check_idx] == 1
-        diff = np.where(censored, np.nan, fine_ratio - runs["progress_ratio"].values[check_idx])
+        coarse = {k: runs[k].values[check_idx] for k in ("status", "progress_ratio", "decided_early")}
+        diff, within = ratio_within(cfg, coarse, {k: check[k][pos] for k in ("status", "progress_ratio")})
         d = np.abs(diff)
-        tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(fine_ratio)
-        with np.errstate(invalid="ignore"):
-            within = np.where(compared & ~censored, (d <= tol).astype(np.int8), -1).astype(np.int8)
         runs["check_ratio_diff"] = ("check", diff)
         runs["check_ratio_diff"].attrs.update(GRID_CHECK_VARIABLES["check_ratio_diff"])
         runs["check_ratio_within_tol"] = ("check", within)
@@ -162,6 +201,15 @@ def assemble_runs(
         runs.attrs["check_ratio_rel_tol"] = cfg.check.ratio_rel_tol
         runs.attrs["check_within_tol_rate"] = float((within[within >= 0] == 1).mean()) if (within >= 0).any() else math.nan
         runs.attrs["check_n_outside_tol"] = int(np.count_nonzero(within == 0))
+        if "twin_ratio_up" in check:
+            spread, sensitive = twin_sensitivity(coarse["progress_ratio"], {k: check[k][pos] for k in TWIN_COLUMNS}, diff, within)
+            runs["check_twin_spread"] = ("check", spread)
+            runs["check_twin_spread"].attrs.update(GRID_CHECK_VARIABLES["check_twin_spread"])
+            runs["check_sensitive"] = ("check", sensitive)
+            runs["check_sensitive"].attrs.update(GRID_CHECK_VARIABLES["check_sensitive"])
+            runs.attrs["check_twin_rel"] = cfg.check.twin_rel
+            runs.attrs["check_n_sensitive"] = int(np.count_nonzero(sensitive == 1))
+            runs.attrs["check_n_dt_limited"] = int(np.count_nonzero(sensitive == 0))
         runs.attrs["check_agreement_rate"] = float((agree[compared] == 1).mean()) if compared.any() else math.nan
         runs.attrs["check_not_compared"] = int(np.count_nonzero(~compared))
         runs.attrs["check_median_abs_ratio_diff"] = float(np.nanmedian(d)) if np.isfinite(d).any() else math.nan
