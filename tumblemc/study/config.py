@@ -153,6 +153,7 @@ from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
 from tumblemc.study.adaptive import check_adaptive
 from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget
+from tumblemc.study.checkcfg import CheckConfig, parse_check
 from tumblemc.study.checks import (
     ConfigError,
     check_choice,
@@ -187,24 +188,6 @@ ROTATIONS = ROTATION_OPTIONS  # and rotation rows
 
 
 MAX_SAMPLES = 1_000_000
-
-
-@dataclass(frozen=True)
-class CheckConfig:
-    """Numerical-error check: ``max(min_runs, ceil(fraction * runs))`` runs (at most all) are re-simulated at ``dt / dt_factor``.
-
-    Their ratios agree when ``|fine - coarse| <= ratio_abs_tol + ratio_rel_tol |fine|``.
-    """
-
-    fraction: float = 0.02
-    min_runs: int = 20
-    dt_factor: int = 4
-    ratio_abs_tol: float = 0.05
-    ratio_rel_tol: float = 0.1
-    # every check run outside the ratio tolerance is simulated twice more at the study dt,
-    # with the magnetisation x (1 +- twin_rel): a run whose ratio moves as far as the dt
-    # change moved it is sensitive (its ratio is not resolved by any dt); 0 turns it off
-    twin_rel: float = 1e-6
 
 
 @dataclass(frozen=True)
@@ -420,24 +403,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     if precision is not None:
         check_adaptive(mode, sampler, ci, precision, samples, ci_level)
 
-    ct = check_table("check", d.get("check", {}))
-    check_no_unknown(ct, ("fraction", "min_runs", "dt_factor", "ratio_abs_tol", "ratio_rel_tol", "twin_rel"), "check")
-    twin_rel = check_num("check.twin_rel", ct.get("twin_rel", 1e-6), 0.0, 1e-2)
-    if 0.0 < twin_rel < 1e-12:
-        raise config_error(
-            "check.twin_rel",
-            twin_rel,
-            "is below 1e-12, where a change of the magnetisation is lost to rounding",
-            "0 (off) or a number in [1e-12, 0.01]",
-        )
-    check = CheckConfig(
-        fraction=check_num("check.fraction", ct.get("fraction", 0.02), 0.0, 1.0),
-        min_runs=check_int("check.min_runs", ct.get("min_runs", 20), 0, 10**9),
-        dt_factor=check_int("check.dt_factor", ct.get("dt_factor", 4), 2, 64),
-        ratio_abs_tol=check_num("check.ratio_abs_tol", ct.get("ratio_abs_tol", 0.05), 0.0, 1e6),
-        ratio_rel_tol=check_num("check.ratio_rel_tol", ct.get("ratio_rel_tol", 0.1), 0.0, 10.0),
-        twin_rel=twin_rel,
-    )
+    check = parse_check(d.get("check", {}))
     et = check_table("execution", d.get("execution", {}))
     check_no_unknown(et, ("batch_size", "max_in_flight", "workers", "max_runs", "max_steps_per_run", "max_run_memory_gib"), "execution")
     execution = ExecutionConfig(

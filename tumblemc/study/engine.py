@@ -47,17 +47,17 @@ from tumblemc.io import (
     result_attrs,
     write_result,
 )
-from tumblemc.model.params import PRESETS
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_name
 from tumblemc.study.adaptive import AdaptiveResult, adaptive_attrs, restrict, run_adaptive
-from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance, ratio_within
+from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
 from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
 from tumblemc.study.design import batch_row, check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
 from tumblemc.study.progress import Progress
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
+from tumblemc.study.twins import TWIN_KINDS, outside_tol, twin_row, with_twins
 
 
 class StudyResult(NamedTuple):
@@ -179,17 +179,6 @@ def design_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarr
     names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
     cols = {k: des[k].values for k in names if k in des.variables}
     return [batch_row(cfg, {k: v[i] for k, v in cols.items()}) for i in idx]
-
-
-#: the sensitivity twins of the dt check: a check run outside the ratio tolerance again at the
-#: study dt, with the magnetisation x (1 + twin_rel) and x (1 - twin_rel)
-TWIN_KINDS = {"twin_up": 1.0, "twin_down": -1.0}
-
-
-def twin_row(row: RunRow, sign: float, rel: float) -> RunRow:
-    """``row`` with its magnetisation (the sampled one, else the preset's) times ``1 + sign x rel``."""
-    m = float(row["magnetization"]) if "magnetization" in row else float(PRESETS[row["preset"]].magnetization)
-    return cast(RunRow, {**row, "magnetization": m * (1.0 + sign * rel)})
 
 
 def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str) -> list[Task]:
@@ -446,21 +435,18 @@ def _run_locked(
                 break
             bar.update(-(len(redo_main) + len(redo_check)))
             _execute(plan(cfg, des, "main", redo_main, bs, chash) + plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
-        twin_idx = _outside_tol(cfg, store, check_idx)
-        for _ in range(2):  # the sensitivity twins of the check runs outside the ratio tolerance
-            todo_twin = {k: np.setdiff1d(twin_idx, _done(store, k, progress)) for k in TWIN_KINDS}
-            if not sum(len(t) for t in todo_twin.values()):
-                break
-            bar.expect(int(bar.bar.total or 0) + sum(len(t) for t in todo_twin.values()))
-            _execute([t for k, idx in todo_twin.items() for t in plan(cfg, des, k, idx, bs, chash)], client, on_result, mif)
+        twin_idx = outside_tol(cfg, store.read("main", set_aside=False), store.read("check", set_aside=False), check_idx)
+        todo_twin = {k: np.setdiff1d(twin_idx, _done(store, k, progress)) for k in TWIN_KINDS}
+        bar.expect(int(bar.bar.total or 0) + sum(len(t) for t in todo_twin.values()))
+        _execute([t for k, idx in todo_twin.items() for t in plan(cfg, des, k, idx, bs, chash)], client, on_result, mif)
     finally:
         bar.close()
     main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)
     twins = {k: store.read(k, set_aside=False) for k in TWIN_KINDS} if len(twin_idx) else {}
-    if store.damaged or np.setdiff1d(used, main.get("run", ())).size or np.setdiff1d(check_idx, check.get("run", ())).size:
+    pairs = [(used, main), (check_idx, check), *((twin_idx, t) for t in twins.values())]  # twins: study/twins.py
+    missing = [np.setdiff1d(want, got.get("run", ())).size for want, got in pairs]
+    if store.damaged or any(missing):
         raise StudyStateError(f"{store.dir} does not hold every run after simulating the missing ones; run the same command again")
-    if any(np.setdiff1d(twin_idx, t.get("run", ())).size for t in twins.values()):
-        raise StudyStateError(f"{store.dir} does not hold every sensitivity twin after simulating them; run the same command again")
     if cfg.mode == "grid" and cfg.check.twin_rel > 0 and len(check_idx):
         check = with_twins(check, twins)
     if kept is not None:  # the runs kept, renumbered (run_key and sample keep their identity)
@@ -488,34 +474,6 @@ def _run_locked(
         _say(True, f"the damaged shards set aside are in {keep}")
     store.remove()
     return StudyResult(runs, maps, path)
-
-
-def _outside_tol(cfg: StudyConfig, store: ShardStore, check_idx: np.ndarray) -> np.ndarray:
-    """The check runs whose ratios at dt and at the finer dt differ beyond the tolerance (grid mode, twins on)."""
-    if cfg.mode != "grid" or cfg.check.twin_rel == 0.0 or not len(check_idx):
-        return np.zeros(0, np.int64)
-    main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)
-    mpos, cpos = np.searchsorted(main["run"], check_idx), np.searchsorted(check["run"], check_idx)
-    coarse = {k: main[k][mpos] for k in ("status", "progress_ratio", "decided_early")}
-    _, within = ratio_within(cfg, coarse, {k: check[k][cpos] for k in ("status", "progress_ratio")})
-    return np.asarray(check_idx, dtype=np.int64)[within == 0]
-
-
-def with_twins(check: dict[str, np.ndarray], twins: dict[str, dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """The check runs' outcomes with the twins' ratios and statuses (NaN and -1 where none).
-
-    The columns are :data:`tumblemc.study.assemble.TWIN_COLUMNS`.
-    """
-    out = dict(check)
-    runs = np.asarray(check["run"], dtype=np.int64)
-    for kind, tag in (("twin_up", "up"), ("twin_down", "down")):
-        ratio, status = np.full(runs.size, np.nan), np.full(runs.size, -1, np.int8)
-        t = twins.get(kind, {})
-        if t and len(t["run"]):
-            pos = np.searchsorted(runs, t["run"])
-            ratio[pos], status[pos] = t["progress_ratio"], t["status"]
-        out[f"twin_ratio_{tag}"], out[f"twin_status_{tag}"] = ratio, status
-    return out
 
 
 def _say(enabled: bool, msg: str) -> None:
