@@ -58,7 +58,7 @@ def identity_json(config: StudyConfig) -> str:
         table = d
         for p in parents:
             table = table[p]
-        if table[leaf] == default:
+        if leaf in table and table[leaf] == default:
             del table[leaf]
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
@@ -74,6 +74,8 @@ def _canonical(config: StudyConfig) -> dict[str, Any]:
     d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
     if config.mode == "grid":  # keys only the critical-incline mode takes
         del d["incline_range"], d["incline_tol"]
+    else:  # the sensitivity twins are the grid mode's (study/twins.py)
+        del d["check"]["twin_rel"]
     return d
 
 
