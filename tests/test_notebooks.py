@@ -50,3 +50,13 @@ def test_notebook_executes(path: Path) -> None:
     client.execute()  # raises CellExecutionError with the failing cell's traceback
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "error"]
     assert not errors
+
+
+@pytest.mark.parametrize("name", ["example", "example_critical"])
+def test_example_data_comes_from_its_config(name: str) -> None:
+    """data/<name>.nc holds the study its config describes now (a config or schema change asks for it to be regenerated: data/README.md)."""
+    from tumblemc.io import result_attrs
+    from tumblemc.study.config import config_hash, load_config
+
+    stored = result_attrs(ROOT / "data" / f"{name}.nc")["config_hash"]
+    assert stored == config_hash(load_config(ROOT / "studies" / f"{name}.toml")), f"regenerate data/{name}.nc (data/README.md)"
