@@ -391,3 +391,20 @@ def test_prior_tool_expected_runs_match_simulated_cells(p: float) -> None:
     sim = simulate_coverage(p, 0.2, 60, reps=20_000, seed=5, table=interval_table(60, 0.95))
     se = max(float(np.sqrt(dist @ (np.arange(61) - exact) ** 2 / 20_000)), 1e-9)
     assert abs(sim["mean_runs"] - exact) <= 4 * se + 1e-9
+
+
+def test_adaptive_twins_match_the_fixed_studys_run_by_run(tmp_path: Path) -> None:
+    """An adaptive study's sensitivity twins are the fixed study's, run key by run key.
+
+    Its twins are simulated by design index and renumbered with the runs kept.
+    """
+    strict = {"fraction": 0.02, "min_runs": 4, "dt_factor": 2, "ratio_abs_tol": 0.0, "ratio_rel_tol": 0.0}
+    run_study(tiny(**MIXED, check=strict), out=tmp_path / "f.nc", progress=False)
+    run_study(tiny(**ADAPT, check=strict), out=tmp_path / "a.nc", progress=False)
+    (f, _), (a, _) = open_result(tmp_path / "f.nc"), open_result(tmp_path / "a.nc")
+    fkey = {int(k): i for i, k in enumerate(f["run_key"].values[f["check_run"].values])}
+    both = [(i, fkey[int(k)]) for i, k in enumerate(a["run_key"].values[a["check_run"].values]) if int(k) in fkey]
+    assert both and (a["check_ratio_within_tol"].values == 0).any()
+    for i, j in both:
+        for v in ("check_twin_spread", "check_sensitive", "check_ratio_diff"):
+            np.testing.assert_array_equal(a[v].values[i], f[v].values[j])
