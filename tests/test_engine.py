@@ -22,6 +22,7 @@ import pytest
 import xarray as xr
 
 import tumblemc
+from tests.tooling import load_tool
 from tumblemc.io import StudyStateError, open_result, parts_dir, result_attrs
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.schema import TIMESTAMP_ATTRS
@@ -545,6 +546,14 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
         assert spread[k] == pytest.approx(max(moves), rel=1e-12, abs=1e-15)  # the window summed in another order
         assert sens[k] == int(max(moves) >= abs(runs["check_ratio_diff"].values[k]))
     assert runs.attrs["check_n_sensitive"] + runs.attrs["check_n_dt_limited"] == np.count_nonzero(within == 0)
+    # tools/dt_ladder.py rebuilds the same runs from the file alone: its dt / 1 and dt / 2 are the study's two steps
+    tool = load_tool("dt_ladder")
+    rows = tool.ladder(out, tool.outside_runs(out), [1, 2], "magnetization", 1e-6, workers=1)
+    assert [r["run"] for r in rows] == [int(r) for r in sel[within == 0]]
+    for row, k in zip(rows, np.flatnonzero(within == 0), strict=True):
+        assert row["dt/1"] == pytest.approx(runs["progress_ratio"].values[sel[k]], rel=1e-12, abs=1e-15)
+        assert row["dt/2"] == pytest.approx(runs["check_progress_ratio_fine"].values[k], rel=1e-12, abs=1e-15)
+        assert row["twins' spread"] == pytest.approx(spread[k], rel=1e-9, abs=1e-12)
     words = study_status(out)["dt_check"]
     assert "limited by dt" in words and "sensitive" in words
     off = tmp_path / "off.nc"
