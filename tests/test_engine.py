@@ -544,7 +544,7 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
             for s in (1, -1)
         ]
         assert spread[k] == pytest.approx(max(moves), rel=1e-12, abs=1e-15)  # the window summed in another order
-        assert sens[k] == int(max(moves) >= abs(runs["check_ratio_diff"].values[k]))
+        assert sens[k] == int(max(moves) > 0.0 + 0.0 * abs(runs["check_progress_ratio_fine"].values[k]))  # STRICT: zero tolerance
     assert runs.attrs["check_n_sensitive"] + runs.attrs["check_n_dt_limited"] == np.count_nonzero(within == 0)
     # tools/dt_ladder.py rebuilds the same runs from the file alone: its dt / 1 and dt / 2 are the study's two steps
     tool = load_tool("dt_ladder")
@@ -566,19 +566,19 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
 
 
 def test_twin_sensitivity_classes() -> None:
-    """Sensitive when the twins move the ratio at least as far as the finer dt; unclassified without valid twins."""
+    """Sensitive when the twins move the ratio beyond the run's tolerance; unclassified without valid twins or within tolerance."""
     from tumblemc.study.assemble import twin_sensitivity
 
-    ratio = np.array([1.0, 1.0, 1.0, 1.0, 1.0])
+    ratio = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
     twins = {
-        "twin_ratio_up": np.array([1.5, 1.01, 1.5, 1.5, np.nan]),
-        "twin_ratio_down": np.array([0.9, 0.98, 0.2, 1.0, np.nan]),
-        "twin_status_up": np.array([0, 0, 1, 0, -1]),
-        "twin_status_down": np.array([0, 0, 0, 0, -1]),
+        "twin_ratio_up": np.array([1.5, 1.01, 1.5, 1.5, np.nan, 1.2]),
+        "twin_ratio_down": np.array([0.9, 0.98, 0.2, 1.0, np.nan, 1.0]),
+        "twin_status_up": np.array([0, 0, 1, 0, -1, 0]),
+        "twin_status_down": np.array([0, 0, 0, 0, -1, 0]),
     }
-    diff = np.array([-0.5, 0.3, 0.3, 0.01, 0.3])
-    within = np.array([0, 0, 0, 1, 0], dtype=np.int8)
-    spread, sens = twin_sensitivity(ratio, twins, diff, within)
-    np.testing.assert_array_equal(sens, [1, 0, -1, -1, -1])
-    np.testing.assert_allclose(spread[:2], [0.5, 0.02])
-    assert np.isnan(spread[2:]).all()
+    tol = np.array([0.15, 0.15, 0.15, 0.15, 0.15, 0.2])
+    within = np.array([0, 0, 0, 1, 0, 0], dtype=np.int8)
+    spread, sens = twin_sensitivity(ratio, twins, tol, within)
+    np.testing.assert_array_equal(sens, [1, 0, -1, -1, -1, 0])  # a spread equal to the tolerance is within it, as in the dt check
+    np.testing.assert_allclose(spread[[0, 1, 5]], [0.5, 0.02, 0.2])
+    assert np.isnan(spread[2:5]).all()

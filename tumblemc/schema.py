@@ -380,8 +380,8 @@ GRID_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
     "check_sensitive": {
         "units": "1",
         "long_name": (
-            "a check run outside the ratio tolerance whose twins moved its ratio at least as far as the finer dt did"
-            " (sensitive: no dt resolves its ratio) or not (limited by dt)"
+            "a check run outside the ratio tolerance whose twins moved its ratio beyond that tolerance"
+            " (sensitive: the model does not determine its ratio to the tolerance) or not (limited by dt)"
         ),
         "flag_values": np.array([-1, 0, 1], dtype=np.int8),
         "flag_meanings": "not_classified dt_limited sensitive",

@@ -324,7 +324,7 @@ def write_report(
         if "check_outside_sensitive" in s:
             line += (
                 f" ({s['check_outside_dt_limited']} limited by dt, {s['check_outside_sensitive']} sensitive: a change of"
-                f" {runs.attrs.get('check_twin_rel', math.nan):g} in the magnetisation moves their ratio at dt as far as dt / 4 does)"
+                f" {runs.attrs.get('check_twin_rel', math.nan):g} in the magnetisation moves their ratio at dt beyond the tolerance)"
             )
         lines.append(line)
         outside = outside_table(runs)

@@ -488,7 +488,7 @@ def check_words(runs: xr.Dataset, where: str = "the result file", worst: int = 3
         n_u = bad.size - n_s - n_d
         classes = (
             f"{n_d} limited by dt, {n_s} sensitive (a change of {a.get('check_twin_rel', '?'):g} in the magnetisation"
-            f" moves the ratio at dt as far: no dt resolves it){f', {n_u} not classified (a twin invalid)' if n_u else ''}; "
+            f" moves the ratio beyond the tolerance: no dt resolves it){f', {n_u} not classified (a twin invalid)' if n_u else ''}; "
         )
     listed = f"{'; '.join(items)}{more}"
     return f"{text}; {bad.size} runs differ ({tol}): {classes}{listed}; all in {where}, runs group, check_ratio_within_tol == 0"

@@ -147,23 +147,22 @@ def ratio_within(cfg: StudyConfig, coarse: dict[str, np.ndarray], fine: dict[str
 TWIN_COLUMNS = ("twin_ratio_up", "twin_ratio_down", "twin_status_up", "twin_status_down")
 
 
-def twin_sensitivity(
-    ratio: np.ndarray, twins: dict[str, np.ndarray], diff: np.ndarray, within: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Whether the dt difference of a check run outside tolerance is its sensitivity: ``(spread, sensitive)``.
+def twin_sensitivity(ratio: np.ndarray, twins: dict[str, np.ndarray], tol: np.ndarray, within: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Whether a check run outside the ratio tolerance is resolved by its model at all: ``(spread, sensitive)``.
 
     ``spread`` is the larger move of the ratio at the study dt when the magnetisation is
     changed by ``+- check.twin_rel`` (NaN where the twins were not simulated or either is
-    invalid). ``sensitive`` is 1 where ``spread >= |diff|`` (a change far below any
-    measurement moves the ratio as far as the finer step did, so no dt resolves it),
-    0 where not (the ratio is limited by dt), -1 where not classified (within tolerance,
-    not compared, or no valid twins).
+    invalid). ``sensitive`` is 1 where ``spread > tol`` (the dt check's tolerance of that
+    run): a change far below any measurement already moves the ratio beyond the tolerance,
+    so the model does not determine the ratio to the tolerance and no dt can; 0 where the
+    twins stay within it (the ratio at this dt is limited by dt); -1 where not classified
+    (within tolerance, not compared, or no valid twins).
     """
     ok = (np.asarray(twins["twin_status_up"]) == 0) & (np.asarray(twins["twin_status_down"]) == 0) & (within == 0)
     with np.errstate(invalid="ignore"):
         spread = np.maximum(np.abs(twins["twin_ratio_up"] - ratio), np.abs(twins["twin_ratio_down"] - ratio))
         spread = np.where(ok, spread, np.nan)
-        sensitive = np.where(ok, (spread >= np.abs(diff)).astype(np.int8), -1).astype(np.int8)
+        sensitive = np.where(ok, (spread > tol).astype(np.int8), -1).astype(np.int8)
     return spread, sensitive
 
 
@@ -202,7 +201,8 @@ def assemble_runs(
         runs.attrs["check_within_tol_rate"] = float((within[within >= 0] == 1).mean()) if (within >= 0).any() else math.nan
         runs.attrs["check_n_outside_tol"] = int(np.count_nonzero(within == 0))
         if "twin_ratio_up" in check:
-            spread, sensitive = twin_sensitivity(coarse["progress_ratio"], {k: check[k][pos] for k in TWIN_COLUMNS}, diff, within)
+            tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(check["progress_ratio"][pos])
+            spread, sensitive = twin_sensitivity(coarse["progress_ratio"], {k: check[k][pos] for k in TWIN_COLUMNS}, tol, within)
             runs["check_twin_spread"] = ("check", spread)
             runs["check_twin_spread"].attrs.update(GRID_CHECK_VARIABLES["check_twin_spread"])
             runs["check_sensitive"] = ("check", sensitive)

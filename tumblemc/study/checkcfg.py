@@ -25,8 +25,8 @@ class CheckConfig:
 
     Their ratios agree when ``|fine - coarse| <= ratio_abs_tol + ratio_rel_tol |fine|``.
     Every check run outside that tolerance is simulated twice more at the study dt with the
-    magnetisation x (1 +- ``twin_rel``): a run whose ratio moves as far as the dt change
-    moved it is sensitive (no dt resolves its ratio); ``twin_rel = 0`` turns them off.
+    magnetisation x (1 +- ``twin_rel``): a run whose ratio they move beyond the tolerance is
+    sensitive (no dt resolves its ratio to the tolerance); ``twin_rel = 0`` turns them off.
     """
 
     fraction: float = 0.02

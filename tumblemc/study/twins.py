@@ -2,8 +2,9 @@
 
 A check run whose ratios at dt and at ``dt / dt_factor`` differ beyond the tolerance is
 simulated twice more at the study dt with the magnetisation x (1 +- ``twin_rel``). Where
-the twins move its ratio at least as far as the finer step did, no dt resolves the ratio
-(the run is sensitive); elsewhere the ratio is limited by dt. The engine runs them
+the twins move its ratio beyond the same tolerance, the model does not determine the ratio
+to the tolerance and no dt can (the run is sensitive); elsewhere the ratio is limited by
+dt. The engine runs them
 (:func:`tumblemc.study.engine.run_study`, shard kinds :data:`TWIN_KINDS`) and
 :func:`tumblemc.study.assemble.twin_sensitivity` classes them.
 """
