@@ -536,13 +536,10 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
         r = int(sel[k])
         kw = run_kwargs(cfg, des.isel(run=r))
         m = kw.get("magnetization", PRESETS[kw["preset"]].magnetization)  # the sampled one, else the preset's
-        moves = [
-            abs(
-                float(summarize(simulate(**{**kw, "magnetization": m * (1 + s * 1e-6)}))["progress_ratio"])
-                - runs["progress_ratio"].values[r]
-            )
-            for s in (1, -1)
-        ]
+        twins = [float(summarize(simulate(**{**kw, "magnetization": m * (1 + s * 1e-6)}))["progress_ratio"]) for s in (1, -1)]
+        for tag, t in zip(("up", "down"), twins, strict=True):
+            assert runs[f"check_twin_ratio_{tag}"].values[k] == pytest.approx(t, rel=1e-12, abs=1e-15)
+        moves = [abs(t - runs["progress_ratio"].values[r]) for t in twins]
         assert spread[k] == pytest.approx(max(moves), rel=1e-12, abs=1e-15)  # the window summed in another order
         assert sens[k] == int(max(moves) > 0.0 + 0.0 * abs(runs["check_progress_ratio_fine"].values[k]))  # STRICT: zero tolerance
     assert runs.attrs["check_n_sensitive"] + runs.attrs["check_n_dt_limited"] == np.count_nonzero(within == 0)
@@ -555,7 +552,14 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
         assert row["dt/2"] == pytest.approx(runs["check_progress_ratio_fine"].values[k], rel=1e-12, abs=1e-15)
         assert row["twins' spread"] == pytest.approx(spread[k], rel=1e-9, abs=1e-12)
     words = study_status(out)["dt_check"]
-    assert "limited by dt" in words and "sensitive" in words
+    assert "limited by dt" in words and "sensitive" in words and "of 2 twins" not in words
+    # a twin on the other side of the climb threshold is named in the words
+    from tumblemc.analysis.maps import check_words
+
+    k0 = int(np.flatnonzero(within == 0)[0])
+    flipped = runs.copy(deep=True)
+    flipped["check_twin_ratio_up"].values[k0] = 0.0 if runs["progress_ratio"].values[sel[k0]] >= 0.5 else 1.0
+    assert "1 of 2 twins" in check_words(flipped)
     off = tmp_path / "off.nc"
     run_study(tiny(check={**STRICT, "twin_rel": 0.0}), out=off, progress=False)
     r0, _ = open_result(off)

@@ -377,6 +377,14 @@ GRID_CHECK_VARIABLES: dict[str, dict[str, Any]] = {
             " (only for check runs outside the ratio tolerance; NaN elsewhere)"
         ),
     },
+    "check_twin_ratio_up": {
+        "units": "1",
+        "long_name": "progress ratio at dt with the magnetisation x (1 + check_twin_rel) (NaN where not simulated or not valid)",
+    },
+    "check_twin_ratio_down": {
+        "units": "1",
+        "long_name": "progress ratio at dt with the magnetisation x (1 - check_twin_rel) (NaN where not simulated or not valid)",
+    },
     "check_sensitive": {
         "units": "1",
         "long_name": (

@@ -477,6 +477,12 @@ def check_words(runs: xr.Dataset, where: str = "the result file", worst: int = 3
         cell = ", ".join(str(runs[c].values[r]) for c in ("shape", "substrate") if c in runs.variables)
         inc = f", {float(runs['incline_deg'].values[r]):g} deg" if "incline_deg" in runs.variables else ""
         tag = ", sensitive" if sens[k] == 1 else ""
+        if "check_twin_ratio_up" in runs.variables and "success_ratio" in a:  # a twin with the other verdict says so
+            twin = np.array([runs["check_twin_ratio_up"].values[k], runs["check_twin_ratio_down"].values[k]])
+            flips = np.isfinite(twin) & ((twin >= float(a["success_ratio"])) != (coarse[r] >= float(a["success_ratio"])))
+            tag += (
+                f", {int(flips.sum())} of 2 twins {'slide' if coarse[r] >= float(a['success_ratio']) else 'climb'}" if flips.any() else ""
+            )
         items.append(f"run {r} ({cell}{inc}: {coarse[r]:.4g} vs {fine[k]:.4g}{tag})")
     fac, at, rt = (a.get(k, "?") for k in ("check_dt_factor", "check_ratio_abs_tol", "check_ratio_rel_tol"))
     fac, at, rt = (f"{v:g}" if isinstance(v, (int, float, np.number)) else v for v in (fac, at, rt))

@@ -205,6 +205,10 @@ def assemble_runs(
             spread, sensitive = twin_sensitivity(coarse["progress_ratio"], {k: check[k][pos] for k in TWIN_COLUMNS}, tol, within)
             runs["check_twin_spread"] = ("check", spread)
             runs["check_twin_spread"].attrs.update(GRID_CHECK_VARIABLES["check_twin_spread"])
+            for tag in ("up", "down"):  # each twin's ratio (NaN where not simulated or not valid)
+                name, ok = f"check_twin_ratio_{tag}", check[f"twin_status_{tag}"][pos] == 0
+                runs[name] = ("check", np.where(ok, check[f"twin_ratio_{tag}"][pos], np.nan))
+                runs[name].attrs.update(GRID_CHECK_VARIABLES[name])
             runs["check_sensitive"] = ("check", sensitive)
             runs["check_sensitive"].attrs.update(GRID_CHECK_VARIABLES["check_sensitive"])
             runs.attrs["check_twin_rel"] = cfg.check.twin_rel
