@@ -551,6 +551,7 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
         assert row["dt/1"] == pytest.approx(runs["progress_ratio"].values[sel[k]], rel=1e-12, abs=1e-15)
         assert row["dt/2"] == pytest.approx(runs["check_progress_ratio_fine"].values[k], rel=1e-12, abs=1e-15)
         assert row["twins' spread"] == pytest.approx(spread[k], rel=1e-9, abs=1e-12)
+        assert row["not valid"] == "-"  # every run of the tiny study is valid at both steps
     words = study_status(out)["dt_check"]
     assert "limited by dt" in words and "sensitive" in words and "of 2 twins" not in words
     # a twin on the other side of the climb threshold is named in the words
@@ -586,3 +587,14 @@ def test_twin_sensitivity_classes() -> None:
     np.testing.assert_array_equal(sens, [1, 0, -1, -1, -1, 0])  # a spread equal to the tolerance is within it, as in the dt check
     np.testing.assert_allclose(spread[[0, 1, 5]], [0.5, 0.02, 0.2])
     assert np.isnan(spread[2:5]).all()
+
+
+def test_dt_ladder_names_the_steps_whose_run_is_not_valid(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """tools/dt_ladder.py marks the ladder rungs and twins whose run is not valid (their ratio is not an answer)."""
+    out = tmp_path / "strict.nc"
+    run_study(tiny(check=STRICT), out=out, progress=False)
+    tool = load_tool("dt_ladder")
+    dt0 = 5e-5
+    monkeypatch.setattr(tool, "_one", lambda job: (1.0, int(job[1] < dt0 / 3 or job[2] != "")))  # dt/4 and both twins fail
+    rows = tool.ladder(out, [0], [1, 2, 4], "magnetization", 1e-6, workers=1)
+    assert rows[0]["not valid"] == "dt/4, magnetization +1e-06, magnetization -1e-06"

@@ -47,13 +47,14 @@ def outside_runs(path: str | Path) -> list[int]:
     return [int(r) for r in sel[runs["check_ratio_within_tol"].values == 0]]
 
 
-def _one(job: tuple[dict[str, Any], float, str, float]) -> float:
+def _one(job: tuple[dict[str, Any], float, str, float]) -> tuple[float, int]:
     kw, dt, param, factor = job
     kw = dict(kw, dt=dt)
     if param:
         base = kw.get(param, getattr(tumblemc.PRESETS[kw["preset"]], param))
         kw[param] = base * factor
-    return float(tumblemc.summarize(tumblemc.simulate(**kw))["progress_ratio"])
+    s = tumblemc.summarize(tumblemc.simulate(**kw))
+    return float(s["progress_ratio"]), int(s["status"])
 
 
 def ladder(path: str | Path, runs: Sequence[int], factors: Sequence[int], param: str, rel: float, workers: int = 2) -> list[dict[str, Any]]:
@@ -74,14 +75,18 @@ def ladder(path: str | Path, runs: Sequence[int], factors: Sequence[int], param:
         with ProcessPoolExecutor(workers) as ex:
             out = list(ex.map(_one, jobs))
     per = len(factors) + 2
+    names = [f"dt/{f}" for f in factors] + [f"{param} +{rel:g}", f"{param} -{rel:g}"]
     for i, row in enumerate(rows):
-        vals = out[i * per : (i + 1) * per]
+        res = out[i * per : (i + 1) * per]
+        vals = [v for v, _ in res]
         for f, v in zip(factors, vals, strict=False):
             row[f"dt/{f}"] = v
         up, down = vals[-2], vals[-1]
         base = float(vals[list(factors).index(1)]) if 1 in factors else float("nan")
         row[f"{param} +{rel:g}"], row[f"{param} -{rel:g}"] = up, down
         row["twins' spread"] = max(abs(up - base), abs(down - base)) if 1 in factors else float("nan")
+        # a run that is not valid (a failed step, the ledger): its ratio is not an answer
+        row["not valid"] = ", ".join(n for n, (_, st) in zip(names, res, strict=True) if st != 0) or "-"
     return rows
 
 
