@@ -543,6 +543,9 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
         assert spread[k] == pytest.approx(max(moves), rel=1e-12, abs=1e-15)  # the window summed in another order
         assert sens[k] == int(max(moves) > 0.0 + 0.0 * abs(runs["check_progress_ratio_fine"].values[k]))  # STRICT: zero tolerance
     assert runs.attrs["check_n_sensitive"] + runs.attrs["check_n_dt_limited"] == np.count_nonzero(within == 0)
+    _, maps = open_result(out)  # the classes per cell
+    for name, code in (("n_check_sensitive", 1), ("n_check_dt_limited", 0)):
+        assert int(np.nansum(maps[name].values)) == np.count_nonzero(sens == code)
     # tools/dt_ladder.py rebuilds the same runs from the file alone: its dt / 1 and dt / 2 are the study's two steps
     tool = load_tool("dt_ladder")
     rows = tool.ladder(out, tool.outside_runs(out), [1, 2], "magnetization", 1e-6, workers=1)

@@ -158,6 +158,14 @@ MAP_VARIABLES: dict[str, dict[str, str]] = {
         "ancillary_variables": "n_check_compared",
     },
     "n_check_compared": {"units": "1", "long_name": "dt-check runs of the cell valid at both time steps"},
+    "n_check_dt_limited": {
+        "units": "1",
+        "long_name": "dt-check runs of the cell outside the ratio tolerance whose sensitivity twins stay within it (limited by dt)",
+    },
+    "n_check_sensitive": {
+        "units": "1",
+        "long_name": "dt-check runs of the cell whose sensitivity twins move the ratio beyond the tolerance (not determined by the model)",
+    },
     "n_decided_early": {
         "units": "1",
         "long_name": "runs stopped by an early decision (failures whose final ratio is only known to be below the success threshold)",

@@ -234,12 +234,16 @@ def maps(
     _check_ci_args(level, method)
 
     # the dt check's per-run flag (-2: not checked), carried along the sort
+    # and the sensitivity twins' class (1 sensitive, 0 limited by dt, else -2)
     check_flag = np.full(runs.sizes["run"], -2, dtype=np.int8)
+    sens_flag = np.full(runs.sizes["run"], -2, dtype=np.int8)
     if "check_ratio_within_tol" in runs.variables and "check_run" in runs.variables:
         check_flag[np.asarray(runs["check_run"].values, dtype=np.int64)] = runs["check_ratio_within_tol"].values
-    runs = sort_runs(runs.assign(_check_flag=("run", check_flag)))
-    check_flag = runs["_check_flag"].values
-    runs = runs.drop_vars("_check_flag")
+    if "check_sensitive" in runs.variables:
+        sens_flag[np.asarray(runs["check_run"].values, dtype=np.int64)] = runs["check_sensitive"].values
+    runs = sort_runs(runs.assign(_check_flag=("run", check_flag), _sens_flag=("run", sens_flag)))
+    check_flag, sens_flag = runs["_check_flag"].values, runs["_sens_flag"].values
+    runs = runs.drop_vars(["_check_flag", "_sens_flag"])
     dims, values = _cell_dims(runs)
     _, shape, idx, groups = cell_groups(runs, dims)
     ncell = len(groups)
@@ -320,6 +324,9 @@ def maps(
             share = np.where(n_check > 0, n_within / np.maximum(n_check, 1), np.nan)
         data["check_within_tol_share"] = (dims, grid(share))
         data["n_check_compared"] = (dims, grid(n_check))
+    if "check_sensitive" in runs.variables:
+        for name, code in (("n_check_dt_limited", 0), ("n_check_sensitive", 1)):
+            data[name] = (dims, grid(np.bincount(idx, weights=sens_flag == code, minlength=ncell).astype(np.int64)))
     coords: dict[str, Any] = {d: (d, values[d]) for d in dims}
     for d in SWEEP_DIMS:
         if d in values and d not in dims and values[d].size == 1:
