@@ -13,7 +13,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from scipy.stats import binomtest
 
-from tumblemc.analysis.maps import check_summary, maps, proportion_ci
+from tumblemc.analysis.maps import maps, proportion_ci
+from tumblemc.analysis.words import check_summary
 from tumblemc.viz.ratio import RATIO_LINEAR
 from tumblemc.viz.study import plot_ratio_distribution, plot_study, plot_success_curves, plot_success_heatmap
 from tumblemc.viz.style import MAX_FIG_W, format_penetration

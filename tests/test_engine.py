@@ -558,7 +558,7 @@ def test_twins_classify_the_check_runs_outside_the_tolerance(tmp_path: Path) -> 
     words = study_status(out)["dt_check"]
     assert "limited by dt" in words and "sensitive" in words and "of 2 twins" not in words
     # a twin on the other side of the climb threshold is named in the words
-    from tumblemc.analysis.maps import check_words
+    from tumblemc.analysis.words import check_words
 
     k0 = int(np.flatnonzero(within == 0)[0])
     flipped = runs.copy(deep=True)

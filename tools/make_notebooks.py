@@ -219,7 +219,7 @@ verdict agreement.""",
     ),
     (
         "code",
-        """from tumblemc.analysis.maps import check_summary
+        """from tumblemc.analysis.words import check_summary
 check_summary(runs)""",
     ),
 ]

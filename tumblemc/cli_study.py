@@ -239,7 +239,7 @@ def _bokeh_note() -> str:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from tumblemc.analysis.maps import check_words, early_words
+    from tumblemc.analysis.words import check_words, early_words
     from tumblemc.io import open_result
     from tumblemc.viz.study import plot_study
 

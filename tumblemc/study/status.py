@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from tumblemc.analysis.maps import check_words, early_words
+from tumblemc.analysis.words import check_words, early_words
 from tumblemc.io import ShardStore, open_result, read_study_json, result_attrs
 from tumblemc.study.config import config_hash, config_to_json, load_config
 from tumblemc.study.design import check_subset, design

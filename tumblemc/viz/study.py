@@ -27,7 +27,8 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from tumblemc.analysis.maps import check_summary, check_words, ci_label, early_words
+from tumblemc.analysis.maps import ci_label
+from tumblemc.analysis.words import check_summary, check_words, early_words
 from tumblemc.schema import SWEEP_DIMS
 from tumblemc.viz.ratio import plot_ratio_distribution
 from tumblemc.viz.style import CMAP, MAX_FIG_W, panel_grid, panel_title, save_figure, sweep_rows
