@@ -176,7 +176,7 @@ def test_study_stops_sliders_audits_the_check_runs_and_keeps_every_verdict(tmp_p
     The cuboid on paper at 60 deg slides; half the runs are check runs, which run to the end
     and audit the bound.
     """
-    from tumblemc.analysis.maps import early_words
+    from tumblemc.analysis.words import early_words
     from tumblemc.study.engine import run_study
     from tumblemc.viz.ratio import plot_ratio_distribution
 
