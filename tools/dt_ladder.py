@@ -23,14 +23,16 @@ import json
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 import tumblemc
 from tumblemc.io import open_result, result_attrs
+from tumblemc.model.rows import RunRow
 from tumblemc.study.config import StudyConfig, load_config
 from tumblemc.study.design import design, run_kwargs, study_dt
+from tumblemc.study.twins import twin_row
 
 
 def study_of(path: str | Path) -> StudyConfig:
@@ -47,12 +49,9 @@ def outside_runs(path: str | Path) -> list[int]:
     return [int(r) for r in sel[runs["check_ratio_within_tol"].values == 0]]
 
 
-def _one(job: tuple[dict[str, Any], float, str, float]) -> tuple[float, int]:
-    kw, dt, param, factor = job
-    kw = dict(kw, dt=dt)
-    if param:
-        base = kw.get(param, getattr(tumblemc.PRESETS[kw["preset"]], param))
-        kw[param] = base * factor
+def _one(job: tuple[dict[str, Any], float, str, float, float]) -> tuple[float, int]:
+    kw, dt, param, sign, rel = job  # param "": the run itself; else a twin, changed as the study's (twin_row)
+    kw = dict(twin_row(cast(RunRow, kw), sign, rel, param) if param else kw, dt=dt)
     s = tumblemc.summarize(tumblemc.simulate(**kw))
     return float(s["progress_ratio"]), int(s["status"])
 
@@ -67,7 +66,7 @@ def ladder(path: str | Path, runs: Sequence[int], factors: Sequence[int], param:
     jobs, rows = [], []
     for r in runs:
         kw = run_kwargs(cfg, des.isel(run=int(r)))
-        jobs += [(kw, dt / f, "", 1.0) for f in factors] + [(kw, dt, param, 1.0 + s * rel) for s in (1.0, -1.0)]
+        jobs += [(kw, dt / f, "", 0.0, 0.0) for f in factors] + [(kw, dt, param, s, rel) for s in (1.0, -1.0)]
         rows.append({"run": int(r), "cell": f"{kw['shape']}, {kw['preset']}, {kw.get('incline_deg', 0.0):g} deg, {kw['freq_hz']:g} Hz"})
     if workers <= 1:
         out = [_one(j) for j in jobs]

@@ -182,6 +182,11 @@ class ShardStore:
         """Run indices of ``kind`` already finished (damaged shards set aside)."""
         return self.read(kind).get("run", np.zeros(0, np.int64))
 
+    def require(self, pairs: list[tuple[np.ndarray, dict[str, np.ndarray]]]) -> None:
+        """Raise :class:`StudyStateError` if a shard was damaged or a ``(runs wanted, runs read)`` pair misses a run."""
+        if self.damaged or any(np.setdiff1d(want, got.get("run", ())).size for want, got in pairs):
+            raise StudyStateError(f"{self.dir} does not hold every run after simulating the missing ones; run the same command again")
+
     def remove(self) -> None:
         """Delete the shard directory and everything in it."""
         shutil.rmtree(self.dir, ignore_errors=True)

@@ -123,6 +123,11 @@ def _audit(runs: xr.Dataset, check_idx: np.ndarray, check: dict[str, np.ndarray]
     return out
 
 
+def ratio_tol(cfg: StudyConfig, fine_ratio: np.ndarray) -> np.ndarray:
+    """The dt check's tolerance of each check run: ``ratio_abs_tol + ratio_rel_tol |ratio at the finer dt|``."""
+    return cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(np.asarray(fine_ratio, dtype=np.float64))
+
+
 def ratio_within(cfg: StudyConfig, coarse: dict[str, np.ndarray], fine: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """The dt check's ratio comparison of check runs: ``(fine - coarse ratio, within)``.
 
@@ -137,9 +142,8 @@ def ratio_within(cfg: StudyConfig, coarse: dict[str, np.ndarray], fine: dict[str
     censored = np.asarray(coarse["decided_early"]) == 1
     fine_ratio = np.asarray(fine["progress_ratio"], dtype=np.float64)
     diff = np.where(censored, np.nan, fine_ratio - np.asarray(coarse["progress_ratio"], dtype=np.float64))
-    tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(fine_ratio)
     with np.errstate(invalid="ignore"):
-        within = np.where(compared & ~censored, (np.abs(diff) <= tol).astype(np.int8), -1).astype(np.int8)
+        within = np.where(compared & ~censored, (np.abs(diff) <= ratio_tol(cfg, fine_ratio)).astype(np.int8), -1).astype(np.int8)
     return diff, within
 
 
@@ -201,7 +205,7 @@ def assemble_runs(
         runs.attrs["check_within_tol_rate"] = float((within[within >= 0] == 1).mean()) if (within >= 0).any() else math.nan
         runs.attrs["check_n_outside_tol"] = int(np.count_nonzero(within == 0))
         if "twin_ratio_up" in check:
-            tol = cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(check["progress_ratio"][pos])
+            tol = ratio_tol(cfg, check["progress_ratio"][pos])
             spread, sensitive = twin_sensitivity(coarse["progress_ratio"], {k: check[k][pos] for k in TWIN_COLUMNS}, tol, within)
             runs["check_twin_spread"] = ("check", spread)
             runs["check_twin_spread"].attrs.update(GRID_CHECK_VARIABLES["check_twin_spread"])

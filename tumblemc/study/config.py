@@ -58,7 +58,9 @@ ci_level             confidence level of the intervals (default 0.95)
 [check]              numerical-error subset re-simulated at ``dt / dt_factor``:
                      ``fraction`` (0.02), ``min_runs`` (20), ``dt_factor`` (4); the two
                      progress ratios of a checked run agree when they differ by at most
-                     ``ratio_abs_tol + ratio_rel_tol * |fine ratio|`` (0.05, 0.1)
+                     ``ratio_abs_tol + ratio_rel_tol * |fine ratio|`` (0.05, 0.1); a run
+                     outside that is simulated twice more with the magnetisation x (1 +-
+                     ``twin_rel``) (1e-6; 0: off; study/checkcfg.py, study/twins.py)
 [execution]          how to run, not what: ``batch_size`` (8), ``max_in_flight``,
                      ``workers``, and the bounds ``max_runs``, ``max_steps_per_run``,
                      ``max_run_memory_gib`` (study/budget.py); excluded from :func:`config_hash`

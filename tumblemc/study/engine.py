@@ -435,18 +435,16 @@ def _run_locked(
                 break
             bar.update(-(len(redo_main) + len(redo_check)))
             _execute(plan(cfg, des, "main", redo_main, bs, chash) + plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
-        twin_idx = outside_tol(cfg, store.read("main", set_aside=False), store.read("check", set_aside=False), check_idx)
+        main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)  # read once: twins add their own kinds
+        store.require([(used, main), (check_idx, check)])
+        twin_idx = outside_tol(cfg, main, check, check_idx)
         todo_twin = {k: np.setdiff1d(twin_idx, _done(store, k, progress)) for k in TWIN_KINDS}
         bar.expect(int(bar.bar.total or 0) + sum(len(t) for t in todo_twin.values()))
         _execute([t for k, idx in todo_twin.items() for t in plan(cfg, des, k, idx, bs, chash)], client, on_result, mif)
     finally:
         bar.close()
-    main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)
     twins = {k: store.read(k, set_aside=False) for k in TWIN_KINDS} if len(twin_idx) else {}
-    pairs = [(used, main), (check_idx, check), *((twin_idx, t) for t in twins.values())]  # twins: study/twins.py
-    missing = [np.setdiff1d(want, got.get("run", ())).size for want, got in pairs]
-    if store.damaged or any(missing):
-        raise StudyStateError(f"{store.dir} does not hold every run after simulating the missing ones; run the same command again")
+    store.require([(twin_idx, t) for t in twins.values()])
     if cfg.mode == "grid" and cfg.check.twin_rel > 0 and len(check_idx):
         check = with_twins(check, twins)
     if kept is not None:  # the runs kept, renumbered (run_key and sample keep their identity)

@@ -25,10 +25,10 @@ from tumblemc.study.config import StudyConfig
 TWIN_KINDS = {"twin_up": 1.0, "twin_down": -1.0}
 
 
-def twin_row(row: RunRow, sign: float, rel: float) -> RunRow:
-    """``row`` with its magnetisation (the sampled one, else the preset's) times ``1 + sign x rel``."""
-    m = float(row["magnetization"]) if "magnetization" in row else float(PRESETS[row["preset"]].magnetization)
-    return cast(RunRow, {**row, "magnetization": m * (1.0 + sign * rel)})
+def twin_row(row: RunRow, sign: float, rel: float, param: str = "magnetization") -> RunRow:
+    """``row`` with ``param`` (the row's value, else the preset's) times ``1 + sign x rel``."""
+    value = float(row[param]) if param in row else float(getattr(PRESETS[row["preset"]], param))  # type: ignore[literal-required]
+    return cast(RunRow, {**row, param: value * (1.0 + sign * rel)})
 
 
 def outside_tol(cfg: StudyConfig, main: dict[str, np.ndarray], check: dict[str, np.ndarray], check_idx: np.ndarray) -> np.ndarray:
@@ -48,7 +48,8 @@ def with_twins(check: dict[str, np.ndarray], twins: dict[str, dict[str, np.ndarr
     """
     out = dict(check)
     runs = np.asarray(check["run"], dtype=np.int64)
-    for kind, tag in (("twin_up", "up"), ("twin_down", "down")):
+    for kind in TWIN_KINDS:
+        tag = kind.removeprefix("twin_")
         ratio, status = np.full(runs.size, np.nan), np.full(runs.size, -1, np.int8)
         t = twins.get(kind, {})
         if t and len(t["run"]):
