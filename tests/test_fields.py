@@ -115,10 +115,12 @@ def test_work_bound_of_a_program() -> None:
 def test_shorthand_and_program_give_the_same_run() -> None:
     # the default Rotating is the shorthand itself (identical records); an explicit start
     # takes the program path, equal to rounding with a fresh Newton matrix at every
-    # iteration, and to the solver's tolerance with the chord start (SolverOptions.chord_iter:
-    # a rounding difference can change how many chord iterations a step takes)
+    # iteration and the quadratic warm start, and to the solver's tolerance with the chord
+    # start and the cubic warm start (SolverOptions.chord_iter, warm_order: a rounding
+    # difference can change how many chord iterations a step takes, or which extrapolation
+    # the next step starts from)
     for chord, rel in ((0, 1e-9), (SolverOptions().chord_iter, 1e-6)):
-        so = SolverOptions(chord_iter=chord)
+        so = SolverOptions(chord_iter=chord, warm_order=2 if chord == 0 else SolverOptions().warm_order)
         a = tumblemc.simulate("cuboid", "paper", 45.0, 20.0, 1.0, duration_s=0.3, solver=so)
         b = tumblemc.simulate("cuboid", "paper", 45.0, duration_s=0.3, field=Rotating(20.0, 1.0), solver=so)
         c = tumblemc.simulate(

@@ -40,6 +40,7 @@ from .layout import (
     O_MAXIT,
     O_NWORK,
     O_SMOOTH_STALLED,
+    O_WARM,
     P_ADHC,
     P_EB,
     P_ELECT_FLIGHT,
@@ -867,6 +868,20 @@ def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
 
 
 @jit
+def _cubic_predicts_better(z, z1, z2, z3, z4):  # type: ignore[no-untyped-def]
+    """Whether the cubic through the four solutions ``z1`` (the latest) .. ``z4`` predicts
+    ``z`` better, in the max-norm, than the quadratic through ``z1 .. z3``
+    (``SolverOptions.warm_order = 3``: the order of the next step's warm start, chosen as
+    variable-order predictors choose it, by the error it would have made on the last step)."""
+    e2 = 0.0
+    e3 = 0.0
+    for i in range(z.shape[0]):
+        e2 = max(e2, abs(z[i] - (3.0 * z1[i] - 3.0 * z2[i] + z3[i])))
+        e3 = max(e3, abs(z[i] - (4.0 * z1[i] - 6.0 * z2[i] + 4.0 * z3[i] - z4[i])))
+    return e3 < e2
+
+
+@jit
 def _recentre(state, zs, xoff, prm, pstart):  # type: ignore[no-untyped-def]
     """Move the origin along the plane to the centre of mass once it is ``RECENTRE_AT`` away
     along either in-plane axis (``t`` or ``o``).
@@ -1013,6 +1028,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     zwarm = np.zeros(n)
     zprev = np.zeros(n)
     zprev2 = np.zeros(n)
+    zprev3 = np.zeros(n)
+    zprev4 = np.zeros(n)
+    # O_WARM = 3: the next step's warm start is the cubic extrapolation (set at each commit)
+    cubic_next = False
     zbest = np.zeros(n)
     ncont = 0  # consecutive full-length contact solves (for the extrapolated warm start)
     touching = np.zeros(K, np.int64)
@@ -1022,6 +1041,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     maxfail = int(opts[O_MAXFAIL])
     accept_tol = opts[O_ACCEPT]
     smooth_stalled = opts[O_SMOOTH_STALLED] > 0.5
+    warm_cubic = opts[O_WARM] > 2.5
     # a contact (sub-)step whose normal impulse does more positive work than this is solved
     # again as halves (O_NWORK; a rigid contact cannot push: at a landing the robot crosses
     # several thicknesses in a step and the end-pose contact throws it back out)
@@ -1089,7 +1109,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0, 0), led, xoff)
     status = ST_OK
     for step in range(n_steps):
-        _recentre(state, (z, zprev, zprev2), xoff, prm, geo.pstart)
+        _recentre(state, (z, zprev, zprev2, zprev3, zprev4), xoff, prm, geo.pstart)
         remaining = h
         hc = h
         depth = 0
@@ -1188,8 +1208,12 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         continue
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
-                        # smooth motion: extrapolate the last two solutions (O(h^2) warm start)
-                        if ncont >= 3:
+                        # smooth motion: extrapolate the last solutions (O(h^3) warm start, or
+                        # O(h^4) with the cubic where it predicted the last step better)
+                        if cubic_next:
+                            for i in range(n):
+                                z[i] = 4.0 * zwarm[i] - 6.0 * zprev[i] + 4.0 * zprev2[i] - zprev3[i]
+                        elif ncont >= 3:
                             for i in range(n):
                                 z[i] = 3.0 * zwarm[i] - 3.0 * zprev[i] + zprev2[i]
                         else:
@@ -1407,10 +1431,19 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 acc_res = res
             if flight or hc != h or st != ST_OK or unsolved:
                 ncont = 0
+                cubic_next = False
             else:
+                if warm_cubic:
+                    for i in range(n):
+                        zprev4[i] = zprev3[i]
+                        zprev3[i] = zprev2[i]
                 for i in range(n):
                     zprev2[i] = zprev[i]
                     zprev[i] = zwarm[i]
+                if warm_cubic and ncont >= 4:
+                    # the next step's order: the extrapolation that predicted this step's
+                    # solution z better (zprev .. zprev4: the four solutions before it)
+                    cubic_next = _cubic_predicts_better(z, zprev, zprev2, zprev3, zprev4)
                 ncont += 1
             # --- commit
             for i in range(n):
