@@ -102,3 +102,28 @@ def test_no_kernel_without_reference_counting_returns_an_array(tmp_path: Path) -
     assert sorted(out["with_nrt"]) == ["batch.run_batch", "stepper._impact_guess", "stepper.run"]
     assert out["unused"] == []  # a new kernel that the runs above do not reach: extend _exercise
     assert len(set(out["compiled"])) >= 40  # the loop above found the kernels (else the checks pass vacuously)
+
+
+def test_cache_folder_follows_every_kernel_source(tmp_path: Path) -> None:
+    """Numba keys a cached kernel by its own file only: the cache folder is keyed by all of them."""
+    import numba
+
+    from tumblemc.kernels import _jit
+
+    src = tmp_path / "kernels"
+    src.mkdir()
+    (src / "a.py").write_text("x = 1\n")
+    (src / "b.py").write_text("y = 2\n")
+    d0 = _jit.kernels_digest(src)
+    (src / "b.py").write_text("y = 3\n")  # an edit to another file than the caller's
+    d1 = _jit.kernels_digest(src)
+    (src / "b.py").write_text("y = 2\n")
+    assert d1 != d0 and _jit.kernels_digest(src) == d0
+    (src / "c.py").write_text("")
+    assert _jit.kernels_digest(src) != d0  # a new file counts too
+    once = _jit.kernels_cache_dir(str(tmp_path / "cache"), d0)
+    assert Path(once).name == "kernels-" + d0
+    assert _jit.kernels_cache_dir(once, d0) == once  # worker processes inherit the folder
+    # this process (conftest sets NUMBA_CACHE_DIR): Numba writes under the current sources' folder
+    here = "kernels-" + _jit.kernels_digest()
+    assert Path(numba.config.CACHE_DIR).name == here and Path(os.environ["NUMBA_CACHE_DIR"]).name == here

@@ -4,7 +4,13 @@ Every Numba function in :mod:`tumblemc.kernels` is compiled through :func:`jit` 
 :func:`jit_alloc`, for the few that allocate):
 
 - ``cache=True``: compiled code is written to ``NUMBA_CACHE_DIR`` (or ``__pycache__``) so
-  a second process starts in well under a second instead of recompiling.
+  a second process starts in well under a second instead of recompiling. Numba keys a
+  cached function by its own source file only, so a kernel that calls one in another file
+  (``run_batch`` calls ``stepper.run``) would be loaded stale after that file changed.
+  With ``NUMBA_CACHE_DIR`` set, the cache therefore lives in a subfolder named by a digest
+  of every kernel source file (:func:`kernels_cache_dir`): any kernel edit starts a fresh
+  cache. (Without it, Numba's ``__pycache__`` next to the sources applies; an installed
+  package's files change only by reinstalling, which replaces them all.)
 - ``nogil=True``: kernels release the GIL, so threads (dask's threaded scheduler) can run
   simulations concurrently.
 - ``fastmath`` is **off**: fastmath lets LLVM assume no NaN/inf, which compiles away the
@@ -25,9 +31,38 @@ Every Numba function in :mod:`tumblemc.kernels` is compiled through :func:`jit` 
 
 from __future__ import annotations
 
+import hashlib
+import os
+from pathlib import Path
+
 import numba
 
 JIT_OPTIONS: dict[str, object] = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+#: prefix of the cache subfolder of one version of the kernel sources
+CACHE_PREFIX = "kernels-"
+
+
+def kernels_digest(folder: Path | None = None) -> str:
+    """Digest of every ``*.py`` file of ``folder`` (default: this package), names and contents."""
+    h = hashlib.sha256()
+    for p in sorted((folder or Path(__file__).resolve().parent).glob("*.py")):
+        h.update(p.name.encode())
+        h.update(b"\0")
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def kernels_cache_dir(base: str, digest: str) -> str:
+    """The cache folder under ``base`` for kernel sources of ``digest`` (``base`` itself if it is one already)."""
+    name = CACHE_PREFIX + digest
+    return base if Path(base).name == name else os.path.join(base, name)
+
+
+if os.environ.get("NUMBA_CACHE_DIR"):
+    # the environment too: Numba re-reads it when it compiles, and worker processes inherit it
+    os.environ["NUMBA_CACHE_DIR"] = kernels_cache_dir(os.environ["NUMBA_CACHE_DIR"], kernels_digest())
+    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
 
 
 def jit(func):  # type: ignore[no-untyped-def]
