@@ -1,0 +1,119 @@
+"""The documentation runs: its shell commands parse with today's CLI, and README's Python runs.
+
+Every ``tumblemc ...`` line of a fenced ``bash``/``sh``/``console`` block in README.md,
+docs/ and data/README.md is parsed by :func:`tumblemc.cli.build_parser` (nothing is
+executed; ``bench`` passes its arguments on and is skipped), and each ``studies/*.toml``
+it names must exist. README's ``python`` blocks run in a temporary folder: the short ones
+in the fast tier, the one that runs a study in the slow tier, the SLURM one not at all (it
+needs a cluster).
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+import shutil
+from pathlib import Path
+
+import pytest
+
+from tumblemc.cli import build_parser
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC_FILES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")), ROOT / "data" / "README.md"]
+SHELL_TAGS = ("```bash", "```sh", "```console")
+
+
+def fenced_blocks(path: Path, tags: tuple[str, ...]) -> list[tuple[int, str]]:
+    """(first line number, text) of every fenced block of ``path`` opened by one of ``tags``."""
+    blocks: list[tuple[int, str]] = []
+    lines: list[str] | None = None
+    start = 0
+    for i, line in enumerate(path.read_text().splitlines(), 1):
+        s = line.strip()
+        if lines is None:
+            if s.startswith("```"):
+                lines = [] if s in tags else None
+                start = i + 1
+                if lines is None:  # a block of another kind: skip to its end
+                    lines = ["<skip>"]
+            continue
+        if s == "```":
+            if lines[:1] != ["<skip>"]:
+                blocks.append((start, "\n".join(lines)))
+            lines = None
+            continue
+        lines.append(line)
+    return blocks
+
+
+def shell_commands() -> list[tuple[str, list[str]]]:
+    """(where, argv after ``tumblemc``) of every documented ``tumblemc`` command."""
+    out: list[tuple[str, list[str]]] = []
+    for path in DOC_FILES:
+        for start, text in fenced_blocks(path, SHELL_TAGS):
+            for k, line in enumerate(text.replace("\\\n", " ").splitlines()):
+                for part in re.split(r"&&|;", line.split(" #")[0]):
+                    m = re.match(r"^(?:\S*/)?tumblemc\s+(.*)$", part.strip())
+                    if m:
+                        out.append((f"{path.relative_to(ROOT)}:{start + k}", shlex.split(m.group(1))))
+    return out
+
+
+COMMANDS = shell_commands()
+
+
+def test_the_docs_hold_commands():
+    """The collector finds the README's commands (a parser that finds nothing tests nothing)."""
+    where = {w.split(":")[0] for w, _ in COMMANDS}
+    assert "README.md" in where
+    assert any(argv[:2] == ["study", "run"] for _, argv in COMMANDS)
+    assert len(COMMANDS) >= 15
+
+
+@pytest.mark.parametrize(("where", "argv"), COMMANDS, ids=[w for w, _ in COMMANDS])
+def test_documented_command_parses(where, argv):
+    if argv[0] == "bench":
+        pytest.skip("bench passes its arguments to benchmarks/step_cost.py")
+    try:
+        build_parser().parse_args(argv)
+    except SystemExit as e:  # argparse's way to refuse
+        pytest.fail(f"{where}: `tumblemc {shlex.join(argv)}` does not parse (exit {e.code})")
+    for a in argv:
+        if re.fullmatch(r"studies/[\w.-]+\.toml", a):
+            assert (ROOT / a).is_file(), f"{where}: {a} does not exist"
+
+
+README_PY = fenced_blocks(ROOT / "README.md", ("```python",))
+
+
+def _kind(code: str) -> str:
+    if "dask_jobqueue" in code:
+        return "cluster"
+    return "slow" if "run_study(" in code else "fast"
+
+
+MARKS = {"fast": [], "slow": [pytest.mark.slow], "cluster": [pytest.mark.skip("needs a SLURM cluster")]}
+
+
+@pytest.mark.parametrize(
+    "code",
+    [
+        pytest.param(
+            code,
+            id=f"README.md:{start}",
+            marks=MARKS[_kind(code)],
+        )
+        for start, code in README_PY
+    ],
+)
+def test_readme_python_runs(code, tmp_path, monkeypatch, capsys):
+    shutil.copytree(ROOT / "studies", tmp_path / "studies")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
+    capsys.readouterr()
+
+
+def test_readme_has_python_of_every_kind():
+    kinds = {_kind(code) for _, code in README_PY}
+    assert kinds == {"fast", "slow", "cluster"}
