@@ -103,9 +103,9 @@ O_DECIDE_STEP = 12  # the step that starts the measurement window
 # 1 (default): a (sub-)step whose best attempt stalled within O_ACCEPT still tries the
 # smoothing strategies; 0: it skips them (stepper.run; SolverOptions.smooth_stalled)
 O_SMOOTH_STALLED = 13
-# the extrapolated warm start of a smooth contact step: 2 the quadratic through the last
-# three solutions; 3 also the cubic through the last four, used when it predicted the step
-# just solved better (stepper.run; SolverOptions.warm_order)
+# the extrapolated warm start of a smooth contact step: the polynomial through the last
+# solutions of the order, 2 up to this, that predicted the step just solved best (2: always
+# the quadratic; stepper.run, stepper._best_order; SolverOptions.warm_order)
 O_WARM = 14
 N_OPT = 15
 

@@ -868,17 +868,40 @@ def _contact_state(z, state, prm, geo, scr):  # type: ignore[no-untyped-def]
 
 
 @jit
-def _cubic_predicts_better(z, z1, z2, z3, z4):  # type: ignore[no-untyped-def]
-    """Whether the cubic through the four solutions ``z1`` (the latest) .. ``z4`` predicts
-    ``z`` better, in the max-norm, than the quadratic through ``z1 .. z3``
-    (``SolverOptions.warm_order = 3``: the order of the next step's warm start, chosen as
-    variable-order predictors choose it, by the error it would have made on the last step)."""
+def _best_order(z, zs, pmax):  # type: ignore[no-untyped-def]
+    """The order (2 to ``pmax``, at most 5) of the extrapolation through the last solutions
+    that predicted ``z`` best, in the max-norm; ``zs = (z1, .., z6)``, ``z1`` the latest.
+
+    ``SolverOptions.warm_order``: the next step's warm start takes this order, chosen the
+    way variable-order predictors choose theirs, by the error each would have made on the
+    step just solved. Ties go to the lower order; with ``pmax = 3`` this is the cubic-or-
+    quadratic rule of ``warm_order = 3`` bit for bit (the same sums in the same order).
+    """
+    z1, z2, z3, z4, z5, z6 = zs
     e2 = 0.0
     e3 = 0.0
+    e4 = 0.0
+    e5 = 0.0
     for i in range(z.shape[0]):
-        e2 = max(e2, abs(z[i] - (3.0 * z1[i] - 3.0 * z2[i] + z3[i])))
-        e3 = max(e3, abs(z[i] - (4.0 * z1[i] - 6.0 * z2[i] + 4.0 * z3[i] - z4[i])))
-    return e3 < e2
+        zi = z[i]
+        e2 = max(e2, abs(zi - (3.0 * z1[i] - 3.0 * z2[i] + z3[i])))
+        if pmax >= 3:
+            e3 = max(e3, abs(zi - (4.0 * z1[i] - 6.0 * z2[i] + 4.0 * z3[i] - z4[i])))
+        if pmax >= 4:
+            e4 = max(e4, abs(zi - (5.0 * z1[i] - 10.0 * z2[i] + 10.0 * z3[i] - 5.0 * z4[i] + z5[i])))
+        if pmax >= 5:
+            e5 = max(e5, abs(zi - (6.0 * z1[i] - 15.0 * z2[i] + 20.0 * z3[i] - 15.0 * z4[i] + 6.0 * z5[i] - z6[i])))
+    best = 2
+    eb = e2
+    if pmax >= 3 and e3 < eb:
+        best = 3
+        eb = e3
+    if pmax >= 4 and e4 < eb:
+        best = 4
+        eb = e4
+    if pmax >= 5 and e5 < eb:
+        best = 5
+    return best
 
 
 @jit
@@ -1030,8 +1053,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     zprev2 = np.zeros(n)
     zprev3 = np.zeros(n)
     zprev4 = np.zeros(n)
-    # O_WARM = 3: the next step's warm start is the cubic extrapolation (set at each commit)
-    cubic_next = False
+    zprev5 = np.zeros(n)
+    zprev6 = np.zeros(n)
+    # O_WARM >= 3: the order of the next step's extrapolated warm start (set at each commit)
+    order_next = 2
     zbest = np.zeros(n)
     ncont = 0  # consecutive full-length contact solves (for the extrapolated warm start)
     touching = np.zeros(K, np.int64)
@@ -1041,7 +1066,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     maxfail = int(opts[O_MAXFAIL])
     accept_tol = opts[O_ACCEPT]
     smooth_stalled = opts[O_SMOOTH_STALLED] > 0.5
-    warm_cubic = opts[O_WARM] > 2.5
+    warm_max = int(opts[O_WARM])
     # a contact (sub-)step whose normal impulse does more positive work than this is solved
     # again as halves (O_NWORK; a rigid contact cannot push: at a landing the robot crosses
     # several thicknesses in a step and the end-pose contact throws it back out)
@@ -1109,7 +1134,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     _record(rec, row, t, state, z, 0.0, (0, 0.0, 0.0, 0.0, -1), (0, 0.0, 0, 0, 0.0, 0, 0, 0), led, xoff)
     status = ST_OK
     for step in range(n_steps):
-        _recentre(state, (z, zprev, zprev2, zprev3, zprev4), xoff, prm, geo.pstart)
+        _recentre(state, (z, zprev, zprev2, zprev3, zprev4, zprev5, zprev6), xoff, prm, geo.pstart)
         remaining = h
         hc = h
         depth = 0
@@ -1209,8 +1234,14 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     guess = STRATEGY_GUESS[attempt]
                     if guess == 0 and attempt == 0 and ncont >= 2 and hc == h:
                         # smooth motion: extrapolate the last solutions (O(h^3) warm start, or
-                        # O(h^4) with the cubic where it predicted the last step better)
-                        if cubic_next:
+                        # a higher order where it predicted the last step better: O_WARM)
+                        if order_next == 5:
+                            for i in range(n):
+                                z[i] = 6.0 * zwarm[i] - 15.0 * zprev[i] + 20.0 * zprev2[i] - 15.0 * zprev3[i] + 6.0 * zprev4[i] - zprev5[i]
+                        elif order_next == 4:
+                            for i in range(n):
+                                z[i] = 5.0 * zwarm[i] - 10.0 * zprev[i] + 10.0 * zprev2[i] - 5.0 * zprev3[i] + zprev4[i]
+                        elif order_next == 3:
                             for i in range(n):
                                 z[i] = 4.0 * zwarm[i] - 6.0 * zprev[i] + 4.0 * zprev2[i] - zprev3[i]
                         elif ncont >= 3:
@@ -1431,19 +1462,26 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 acc_res = res
             if flight or hc != h or st != ST_OK or unsolved:
                 ncont = 0
-                cubic_next = False
+                order_next = 2
             else:
-                if warm_cubic:
+                if warm_max >= 5:
+                    for i in range(n):
+                        zprev6[i] = zprev5[i]
+                if warm_max >= 4:
+                    for i in range(n):
+                        zprev5[i] = zprev4[i]
+                if warm_max >= 3:
                     for i in range(n):
                         zprev4[i] = zprev3[i]
                         zprev3[i] = zprev2[i]
                 for i in range(n):
                     zprev2[i] = zprev[i]
                     zprev[i] = zwarm[i]
-                if warm_cubic and ncont >= 4:
+                if warm_max >= 3 and ncont >= 4:
                     # the next step's order: the extrapolation that predicted this step's
-                    # solution z better (zprev .. zprev4: the four solutions before it)
-                    cubic_next = _cubic_predicts_better(z, zprev, zprev2, zprev3, zprev4)
+                    # solution z best (zprev .. zprev6: the solutions before it; an order p
+                    # needs p + 1 of them, and ncont of them are contact solutions)
+                    order_next = _best_order(z, (zprev, zprev2, zprev3, zprev4, zprev5, zprev6), min(warm_max, ncont - 1))
                 ncont += 1
             # --- commit
             for i in range(n):
