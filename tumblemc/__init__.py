@@ -3,10 +3,12 @@
 The model is that of Xie, Bi, Cappelleri & Chakraborty (IDETC 2019).
 
 The public API: :func:`simulate` and :func:`summarize` (one run), :func:`load_config`,
-:func:`run_study` and :func:`open_result` (studies), the shapes (:mod:`tumblemc.shapes`,
-an alias of :mod:`tumblemc.model.shapes`), :data:`PRESETS`, :class:`Params` and
-:class:`SolverOptions`. Layers, lowest first: ``kernels`` (Numba) <- ``model`` <- ``io``,
-``analysis`` <- ``study`` <- ``viz`` <- ``cli``.
+:func:`run_study` and :func:`open_result` (studies), the shapes (``tumblemc.shapes``,
+the module :mod:`tumblemc.model.shapes` as an attribute), :data:`PRESETS`, :class:`Params`
+and :class:`SolverOptions`. Layers, lowest first (``tools/check_imports.py``): ``kernels``
+(Numba) <- ``schema``, ``model``, ``testing`` <- ``io``, ``analysis`` <- ``study`` <-
+``viz`` <- ``claims``, ``lab``, ``calibrate``, ``stress``, ``stepcost``, ``convergence``
+<- ``cli``.
 """
 
 from __future__ import annotations

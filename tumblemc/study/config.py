@@ -25,7 +25,7 @@ mode                 ``"grid"`` (default: every run is one incline of the grid) 
 incline_range        critical_incline only: ``{min, max}`` degrees (default 0, 60)
 incline_tol          critical_incline only: bisection tolerance, degrees (default 0.5)
 shapes*              list of shape names (:data:`tumblemc.shapes.SHAPES`)
-presets*             list of substrate presets (:data:`tumblemc.params.PRESETS`); the
+presets*             list of substrate presets (:data:`tumblemc.model.params.PRESETS`); the
                      run-table coordinate is ``substrate``
 incline_deg*         list of numbers, or ``{start, stop, step}`` (stop inclusive);
                      each in [-89, 89] degrees
@@ -71,9 +71,11 @@ ci_level             confidence level of the intervals (default 0.95)
                      ``axis_yaw_deg``/``axis_pitch_deg`` may be uncertain (pointing error)
 ===================  ===================================================================
 
-``<param>`` is any numeric field of :class:`~tumblemc.params.Params` (``mass``,
+``<param>`` is any numeric field of :class:`~tumblemc.model.params.Params` (``mass``,
 ``F_elect``, ``mu``, ``offset_deg``, ``V_m``, ``magnetization``, ``adhesion_C``,
-``line_contact_fraction``, ``e_t``, ``e_o``, ``e_r``, ``g``) or ``field_mT``. Values are
+``line_contact_width``, ``line_contact_fraction``, ``e_t``, ``e_o``, ``e_r``, ``g``,
+``peel_length``) or ``field_mT`` (and, with ``[field]``, ``axis_yaw_deg`` or
+``axis_pitch_deg``). Values are
 in the units of that field (SI; degrees for ``offset_deg``, mT for ``field_mT``). The
 *nominal* value is the preset's value (the cell's ``field_mT`` for ``field_mT``).
 ``dist`` picks the distribution and its parameters, either absolute or relative to the
@@ -126,7 +128,7 @@ Notes
 -----
 *Physical bounds.* Each parameter has a physical range (``mu >= 0``, ``mass > 0``,
 ``0 <= line_contact_fraction <= 1``, ``|offset_deg| <= 180``, ...; :data:`RANGES`,
-the same as :class:`~tumblemc.params.Params` enforces). Samples never leave it and are
+the same as :class:`~tumblemc.model.params.Params` enforces). Samples never leave it and are
 never clipped onto it (no probability atom at a bound): ``normal`` and ``lognormal`` are
 accepted only if they put at most :data:`NEGLIGIBLE_MASS` (1e-6) of probability outside
 the range for every preset (and field) of the study, and are then sampled truncated to
