@@ -362,14 +362,15 @@ class SolverOptions:
         order (2 up to ``warm_order``) that predicted the step just solved best (the
         max-norm of each extrapolation's error; variable-order predictors choose their
         order the same way). An order p needs p + 1 contact solutions in a row. 2: the
-        quadratic through the last three (the rule before 2026-11-28, bit for bit). 3: the
-        cubic or the quadratic (the default of 2026-11-28, bit for bit). 4 (the default):
-        up to the quartic; 5: up to the quintic. Only the starting point changes: the
-        convergence test is the same, so the solutions agree to ``tol``, not bit for bit.
-        Measured (docs/kernel_experiments.md, "A cubic warm start" and "Warm starts up to
-        the quartic"): 3 against 2, 0.91x the time per step; 4 against 3, 0.93x the time
-        of the default study's first 20 samples per cell (5: 0.88x, with 4 runs of 2,080
-        invalid against none).
+        quadratic through the last three (the rule before 2026-11-28, bit for bit). 3 (the
+        default): the cubic or the quadratic. 4: up to the quartic; 5: up to the quintic.
+        Only the starting point changes: the convergence test is the same, so the solutions
+        agree to ``tol``, not bit for bit. Measured (docs/kernel_experiments.md, "A cubic
+        warm start" and "Warm starts up to the quartic"): 3 against 2, 0.91x the time per
+        step; 4 against 3, 0.93x the time of the default study's first 20 samples per cell
+        (5: 0.88x). Not the default: with 4 the stress campaign had 6 invalid runs of 576
+        against 2 and one 3-D run with a failed step (a landing no strategy solves on that
+        path, docs/solver_gaps.md), where 3 has none.
         Allowed: 2 or 3.
     """
 
@@ -384,7 +385,7 @@ class SolverOptions:
     impulse_accept_tol: float = 1e-6
     chord_iter: int = 4
     smooth_stalled: int = 1
-    warm_order: int = 4
+    warm_order: int = 3
 
     def __post_init__(self) -> None:
         check_number("tol", self.tol, _POSITIVE)
