@@ -27,23 +27,19 @@ SHELL_TAGS = ("```bash", "```sh", "```console")
 def fenced_blocks(path: Path, tags: tuple[str, ...]) -> list[tuple[int, str]]:
     """(first line number, text) of every fenced block of ``path`` opened by one of ``tags``."""
     blocks: list[tuple[int, str]] = []
-    lines: list[str] | None = None
+    inside = keep = False
+    lines: list[str] = []
     start = 0
     for i, line in enumerate(path.read_text().splitlines(), 1):
         s = line.strip()
-        if lines is None:
-            if s.startswith("```"):
-                lines = [] if s in tags else None
-                start = i + 1
-                if lines is None:  # a block of another kind: skip to its end
-                    lines = ["<skip>"]
-            continue
-        if s == "```":
-            if lines[:1] != ["<skip>"]:
+        if not inside and s.startswith("```"):
+            inside, keep, lines, start = True, s in tags, [], i + 1
+        elif inside and s == "```":
+            inside = False
+            if keep:
                 blocks.append((start, "\n".join(lines)))
-            lines = None
-            continue
-        lines.append(line)
+        elif inside:
+            lines.append(line)
     return blocks
 
 

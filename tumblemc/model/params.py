@@ -369,10 +369,11 @@ class SolverOptions:
         warm start" and "Warm starts up to the quartic"): 3 against 2, 0.91x the time per
         step; 4 against 3, 0.93x the time of the default study's first 20 samples per cell
         (5: 0.88x), but 1.07x the CPU time on the whole main job (one run, against an
-        order-3 run of another session; 3.5% fewer iterations). Not the default: with 4 the stress campaign had 6 invalid runs of 576
-        against 2 and one 3-D run with a failed step (a landing no strategy solves on that
-        path, docs/solver_gaps.md), where 3 has none.
-        Allowed: 2 or 3.
+        order-3 run of another session; 3.5% fewer iterations). Not the default: with 4 the
+        stress campaign had 6 invalid runs of 576 against 2 and one 3-D run with a failed
+        step (a landing no strategy solves on that path, docs/solver_gaps.md), where 3 has
+        none.
+        Allowed: 2 to 5.
     """
 
     tol: float = 1e-9
