@@ -150,13 +150,18 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # lowest feature (guess 2's ECP): the impulse that stops the contact point, sticking if it
 # lies in the friction cone (else cut to the cone), and the velocities it leaves; a fast
 # frictional landing where the impact reverses the slip, so that every sliding guess pushes
-# friction the wrong way and Newton stalls with sigma < 0 (see _impact_guess). Then plain,
-# projected or smoothed Newton.
+# friction the wrong way and Newton stalls with sigma < 0 (see _impact_guess). Guess 10: the
+# rigid-body impact of a level edge that sticks along its whole length (no roll, no turn about
+# n): an edge lying level on the plane at the start of the step while the robot rolls one end
+# into it, whose solution has the ECP inside the edge where the impulses of its two ends
+# balance; every point guess puts it at an end or in the middle and Newton stalls (found on a
+# 3-D run, docs/solver_gaps.md; see _level_edge and _impact_guess). Then plain, projected or
+# smoothed Newton.
 # The zero-velocity and snap attempts come after every other one, so steps that converge
 # without them are unchanged.
-STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4, 8, 8, 9, 9)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True, False, True, False, False)  # noqa: E501  # fmt: skip
-STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2)  # noqa: E501  # fmt: skip
+STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4, 8, 8, 9, 9, 10)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True, False, True, False, False, False)  # noqa: E501  # fmt: skip
+STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 0.0)  # noqa: E501  # fmt: skip
 SNAP_MAX_TILT = 0.05  # guess 4 only turns a face that is within this angle (rad) of flat
 N_ATTEMPTS = len(STRATEGY_GUESS)
 FLIGHT_BEFORE = 6  # a step whose explicit prediction penetrates tries free flight before this attempt
@@ -445,15 +450,26 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
 
 
 @jit_alloc
-def _impact_guess(z, off, mk, state, h, model, scr):  # type: ignore[no-untyped-def]
-    """Guess 9 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
+def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore[no-untyped-def]
+    """Guesses 9 and 10 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
 
-    The impulse ``P`` that brings the contact point's velocity ``v_c = v + w x r`` (start of
-    step, ``r = a1 - (x + h v)``) to rest, ``K P = -v_c`` with ``K = I/m - [r]x I^-1 [r]x``
-    (world inertia at the start pose), cut to the friction cone along its tangential part
-    if it leaves it; ``z`` receives ``v + P/m + h F_ext/m``, ``w + I^-1 (r x P)``, the
-    forces ``P / h`` (the normal one plus the pressing load) and ``sigma = 0``. Returns
-    False (``z`` as it was) when the contact point is not approaching the plane or the
+    Guess 9 (``half == 0``): the impulse ``P`` that brings the contact point's velocity
+    ``v_c = v + w x r`` (start of step, ``r = a1 - (x + h v)``) to rest, ``K P = -v_c`` with
+    ``K = I/m - [r]x I^-1 [r]x`` (world inertia at the start pose), cut to the friction cone
+    along its tangential part if it leaves it; ``z`` receives ``v + P/m + h F_ext/m``,
+    ``w + I^-1 (r x P)``, the forces ``P / h`` (the normal one plus the pressing load) and
+    ``sigma = 0``.
+
+    Guess 10 (``half > 0``: ``a1`` is the middle of a level edge of that half length and unit
+    direction ``edge``, :func:`_level_edge`): the impact that makes the whole edge stick,
+    with the impulse ``P`` at ``a1`` and the angular impulses ``m_u`` about ``u = edge x n``
+    and ``m_n`` about ``n`` as unknowns: the five linear conditions are ``v_c+ = 0`` and
+    ``w+ . u = w+ . n = 0`` (no roll, no turn: every point of the edge at rest). A normal
+    impulse ``P_n`` at ``a1 + s edge`` has the moment ``s P_n u``, so the ECP moves to
+    ``s = m_u / P_n`` (cut to the edge), and the torsional force takes what is left of
+    ``m_n`` after the moment ``s (edge x P) . n`` of the tangential impulse there.
+
+    Returns False (``z`` as it was) when the contact point is not approaching the plane or the
     impulse does not push."""
     prm = model.prm
     sc = scr.sc
@@ -496,6 +512,8 @@ def _impact_guess(z, off, mk, state, h, model, scr):  # type: ignore[no-untyped-
         vn += prm[P_N + i] * vc[i]
     if vn >= 0.0:
         return False
+    if half > 0.0:
+        return _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc)
     # K = I/m + [r]x^T Iw^-1 [r]x, column j from the unit impulse e_j
     Kmat = np.zeros((3, 3))
     e = np.zeros(3)
@@ -529,6 +547,122 @@ def _impact_guess(z, off, mk, state, h, model, scr):  # type: ignore[no-untyped-
         z[3 + i] = state[10 + i] + iw[3 * i] * tq[0] + iw[3 * i + 1] * tq[1] + iw[3 * i + 2] * tq[2]
         press -= prm[P_N + i] * sc[S_FEXT + i]
     return _impact_forces(z, off, mk, P, pn, press, h, model.prm)
+
+
+@jit_alloc
+def _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # type: ignore[no-untyped-def]
+    """Guess 10's impact (:func:`_impact_guess`, ``half > 0``): ``iw`` the world inverse inertia
+    (9, row-major), ``r`` the lever of the edge's middle, ``vc`` its velocity."""
+    prm = model.prm
+    sc = scr.sc
+    u = np.empty(3)
+    nv = prm[P_N : P_N + 3]
+    cross(edge, 0, nv, 0, u, 0)
+    ul = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    if ul < 0.5:  # the edge is far from level
+        return False
+    for i in range(3):
+        u[i] /= ul
+    # columns: unit impulses along x, y, z at a1, unit angular impulses about u and n
+    A = np.zeros((5, 5))
+    tq = np.empty(3)
+    dw = np.empty(3)
+    dv = np.empty(3)
+    for j in range(5):
+        for i in range(3):
+            tq[i] = 0.0
+        if j < 3:
+            e = np.zeros(3)
+            e[j] = 1.0
+            cross(r, 0, e, 0, tq, 0)
+        for i in range(3):
+            tq[i] += u[i] if j == 3 else (nv[i] if j == 4 else 0.0)
+        for i in range(3):
+            dw[i] = iw[3 * i] * tq[0] + iw[3 * i + 1] * tq[1] + iw[3 * i + 2] * tq[2]
+        cross(dw, 0, r, 0, dv, 0)
+        for i in range(3):
+            A[i, j] = dv[i] + (1.0 / prm[P_MASS] if i == j else 0.0)
+        A[3, j] = dw[0] * u[0] + dw[1] * u[1] + dw[2] * u[2]
+        A[4, j] = dw[0] * nv[0] + dw[1] * nv[1] + dw[2] * nv[2]
+    b = np.empty(5)
+    for i in range(3):
+        b[i] = -vc[i]
+    b[3] = -(state[10] * u[0] + state[11] * u[1] + state[12] * u[2])
+    b[4] = -(state[10] * nv[0] + state[11] * nv[1] + state[12] * nv[2])
+    if abs(np.linalg.det(A)) < 1e-300:
+        return False
+    sol = np.linalg.solve(A, b)
+    P = sol[:3].copy()
+    pn = nv[0] * P[0] + nv[1] * P[1] + nv[2] * P[2]
+    if not pn > 0.0:
+        return False
+    sof = min(max(sol[3] / pn, -half), half)
+    # the torque of the impulses: r x P + m_u u + m_n n
+    cross(r, 0, P, 0, tq, 0)
+    press = 0.0
+    for i in range(3):
+        tq[i] += sol[3] * u[i] + sol[4] * nv[i]
+        press -= nv[i] * sc[S_FEXT + i]
+    ep = np.empty(3)
+    cross(edge, 0, P, 0, ep, 0)
+    mrest = sol[4] - sof * (ep[0] * nv[0] + ep[1] * nv[1] + ep[2] * nv[2])
+    pt = 0.0
+    for i in range(3):
+        pt += (P[i] - pn * nv[i]) ** 2
+    pt = math.sqrt(pt)
+    cut = prm[P_MU] * pn / pt if pt > prm[P_MU] * pn else 1.0
+    for i in range(3):
+        P[i] = pn * nv[i] + cut * (P[i] - pn * nv[i])
+        z[i] = state[7 + i] + P[i] / prm[P_MASS] + h * sc[S_FEXT + i] / prm[P_MASS]
+        z[3 + i] = state[10 + i] + iw[3 * i] * tq[0] + iw[3 * i + 1] * tq[1] + iw[3 * i + 2] * tq[2]
+        z[off + B_A1 + i] += sof * edge[i]
+        z[off + B_A2 + i] += sof * edge[i]
+    _impact_forces(z, off, mk, P, pn, press, h, prm)
+    z[off + B_LR] = mrest / h
+    return True
+
+
+@jit
+def _level_edge(x, R, prm, geo, kp, tol, edge):  # type: ignore[no-untyped-def]
+    """Guess 10's edge: the half length of the segment joining the two lowest support points
+    of piece ``kp`` at the pose ``x``, ``R`` when they lie within ``tol`` of each other in
+    height and every other support point lies more than ``tol`` above the lowest (a level
+    edge, not a vertex or a face; a curved piece's line has more points and returns 0);
+    ``edge`` receives its unit direction (world). Returns 0 otherwise."""
+    p0 = -1
+    p1 = -1
+    h0 = math.inf
+    h1 = math.inf
+    h2 = math.inf
+    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
+        hgt = _support_height(x, R, prm, geo, p)
+        if hgt < h0:
+            h2 = h1
+            p1 = p0
+            h1 = h0
+            p0 = p
+            h0 = hgt
+        elif hgt < h1:
+            h2 = h1
+            p1 = p
+            h1 = hgt
+        elif hgt < h2:
+            h2 = hgt
+    if p1 < 0 or h1 - h0 > tol or h2 - h0 <= tol:
+        return 0.0
+    el = 0.0
+    for i in range(3):
+        d = 0.0
+        for j in range(3):
+            d += R[3 * i + j] * (geo.sup_pts[p1, j] - geo.sup_pts[p0, j])
+        edge[i] = d
+        el += d * d
+    el = math.sqrt(el)
+    if el < 1e-9:
+        return 0.0
+    for i in range(3):
+        edge[i] /= el
+    return 0.5 * el
 
 
 @jit
@@ -1058,6 +1192,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     # O_WARM >= 3: the order of the next step's extrapolated warm start (set at each commit)
     order_next = 2
     zbest = np.zeros(n)
+    edir = np.zeros(3)  # guess 10's edge direction
     ncont = 0  # consecutive full-length contact solves (for the extrapolated warm start)
     touching = np.zeros(K, np.int64)
     if touch0:
@@ -1281,7 +1416,28 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                     kl = off
                                     ml = mk
                                 off += B_FIXED + mk
-                            if not _impact_guess(z, kl, ml, state, hc, model, scr):
+                            if not _impact_guess(z, kl, ml, state, hc, model, scr, edir, 0.0):
+                                continue
+                        elif guess == 10:
+                            # the level edge at the start pose, sticking at once
+                            quat_to_rot(state, 3, R, 0)
+                            off = 6
+                            kl = -1
+                            ml = 0
+                            kpl = 0
+                            low = math.inf
+                            for kp in range(K):
+                                mk = geo.pstart[kp + 1] - geo.pstart[kp]
+                                _landing_guess(z, off, kp, (state[0:3], state[7:10], state[10:13]), hc, model, scr, LOW_TOL, False)
+                                hk = lowest_point(state[0:3], R, prm, geo, kp, tmp, LOW_TOL, hts)
+                                if hk < low:
+                                    low = hk
+                                    kl = off
+                                    ml = mk
+                                    kpl = kp
+                                off += B_FIXED + mk
+                            half = _level_edge(state[0:3], R, prm, geo, kpl, LOW_TOL, edir)
+                            if half == 0.0 or not _impact_guess(z, kl, ml, state, hc, model, scr, edir, half):
                                 continue
                         elif guess == 8:
                             # the nearly level edge laid level: pre-impact v, snapped w, the
