@@ -12,7 +12,11 @@ strategy and every halving used to fail (the best attempt was kept, a failed ste
 - ``line``: the aluminum robot resting on its long bottom edge, exactly level, while it rolls
   one end into the plane (stress 3-D run 39 with ``warm_order=4``, t = 0.5111 s): the
   solution sticks along the whole edge with the ECP inside it (guess 10, the impact of a level
-  edge; saved by ``tools/line_landing.py``).
+  edge; saved by ``tools/line_landing.py``);
+- ``spin``: the aluminum robot, thrown up by the field, landing on a vertex while it turns
+  about the normal at 426 rad/s (run 110 of ``three_d_runs(n=400, seed=2)``, t = 0.0423 s):
+  the torsional friction stops the turn within the step (guess 11, the point impact that
+  sticks in torsion too; also saved by ``tools/line_landing.py``).
 
 The slow tests run the whole reproducers. The ``impact`` state sits 1.3 cm from the origin,
 so the time loop now moves its origin first (``_recentre``, docs/solver_gaps.md, section 3).
@@ -43,10 +47,11 @@ CASES = {
     "edge": {"preset": "paper", "incline_deg": 0.0, "duration_s": 2.0, **OUT_OF_PLANE_2019_1},
     "impact": {**REPRO_1, "dt": 1.25e-5},
     "line": {**load_tool("line_landing").run_39(), "duration_s": 0.6},
+    "spin": {**load_tool("line_landing").run_2_110(), "duration_s": 0.6},
 }
 
 
-@pytest.mark.parametrize("case", ["edge", "impact", "line"])
+@pytest.mark.parametrize("case", ["edge", "impact", "line", "spin"])
 def test_saved_landing_step_converges(case: str) -> None:
     d = np.load(DATA)
     spec = prepare(run_inputs(get_shape("cuboid"), rotation="momentum", **CASES[case]))  # type: ignore[arg-type]
@@ -188,6 +193,53 @@ def test_line_impact_guess_stops_the_whole_edge(mu: float | None) -> None:
     lever = z[6:9] - state[0:3] - h * state[7:10]
     wrench = np.cross(lever, F) + z[14] * n
     assert np.allclose(iw @ (w_plus - state[10:13]), h * wrench, rtol=0, atol=1e-11 * np.abs(h * wrench).max())
+
+
+def test_point_impact_guess_sticks_in_torsion() -> None:
+    """Guess 11 against a NumPy twin on the saved spinning landing (``half < 0``).
+
+    The impulse at the ECP (which stays at the landing vertex) and the angular impulse about
+    ``n`` leave the contact point at rest and the turn about ``n`` stopped, and the forces'
+    wrench about the predicted centre of mass is the angular impulse the guess gave.
+    """
+    from tumblemc.kernels.geometry import N_CG, N_QS
+    from tumblemc.kernels.layout import N_SC, S_FEXT
+    from tumblemc.kernels.stepper import Scratch, _impact_guess
+
+    d = np.load(DATA)
+    spec = prepare(run_inputs(get_shape("cuboid"), rotation="momentum", **CASES["spin"]))  # type: ignore[arg-type]
+    state, z = d["spin_state"].copy(), d["spin_z"].copy()
+    prm = spec.prm.copy()
+    prm[L.P_MU] = 100.0  # no cut to the cone
+    scr = Scratch(
+        sc=np.zeros(N_SC), R=np.zeros(9), tmp=np.zeros(3), tmp2=np.zeros(3), tmp3=np.zeros(3),
+        cg=np.zeros(N_CG), qs=np.zeros(N_QS), iters=np.zeros(3, np.int64), prob=None, prob6=None, hts=np.zeros(8),
+    )  # fmt: skip
+    fext = np.array([0.0, 0.0, -1.0])
+    scr.sc[S_FEXT : S_FEXT + 3] = fext
+    R = _rot(state[3:7])
+    n = prm[L.P_N : L.P_N + 3]
+    verts = state[0:3] + spec.geo.sup_pts[:8] @ R.T
+    low = verts[np.argmin(verts @ n)]
+    z[6:9] = low
+    z[9:12] = low
+    h = spec.h
+    assert abs(state[10:13] @ n) > 1.0  # turning fast about n (scaled; 426 rad/s)
+    assert _impact_guess(z, 6, 6, state, h, Model(prm, spec.geo), scr, np.zeros(3), -1.0)
+    assert np.array_equal(z[6:9], low)  # the ECP stays at the vertex
+    v_plus = z[0:3] - h * fext
+    w_plus = z[3:6]
+    r = low - state[0:3] - h * state[7:10]
+    scale = np.abs(state[7:13]).max()
+    assert np.abs(v_plus + np.cross(w_plus, r)).max() < 1e-12 * scale
+    assert abs(w_plus @ n) < 1e-12 * scale
+    ln = z[23] - max(-(n @ fext), 0.0)
+    F = ln * n + z[12] * prm[L.P_T : L.P_T + 3] + z[13] * prm[L.P_O : L.P_O + 3]
+    assert ln > 0.0 and z[15] == 0.0
+    iw = R @ prm[L.P_IB : L.P_IB + 9].reshape(3, 3) @ R.T
+    wrench = np.cross(r, F) + z[14] * n
+    assert np.allclose(iw @ (w_plus - state[10:13]), h * wrench, rtol=0, atol=1e-11 * np.abs(h * wrench).max())
+    assert abs(z[14]) > 1.0  # a torsional force: the turn is stopped by friction about n
 
 
 def test_level_edge_refuses_a_vertex_and_a_face() -> None:

@@ -155,13 +155,17 @@ FACE_TOL = 2e-1  # the same, for the fresh face guess with impact forces
 # n): an edge lying level on the plane at the start of the step while the robot rolls one end
 # into it, whose solution has the ECP inside the edge where the impulses of its two ends
 # balance; every point guess puts it at an end or in the middle and Newton stalls (found on a
-# 3-D run, docs/solver_gaps.md; see _level_edge and _impact_guess). Then plain, projected or
-# smoothed Newton.
+# 3-D run, docs/solver_gaps.md; see _level_edge and _impact_guess). Guess 11: guess 9's point
+# impact that also sticks in torsion (no turn about n, the torsional force as an unknown): a
+# vertex landing while the robot turns fast about the normal, where the torsional friction
+# (e_r = 0.1 m, MODEL.md) stops the turn within the step and guess 9, which leaves the turn,
+# starts Newton too far away (found on a 3-D run, docs/solver_gaps.md). Then plain, projected
+# or smoothed Newton.
 # The zero-velocity and snap attempts come after every other one, so steps that converge
 # without them are unchanged.
-STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4, 8, 8, 9, 9, 10)
-STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True, False, True, False, False, False)  # noqa: E501  # fmt: skip
-STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 0.0)  # noqa: E501  # fmt: skip
+STRATEGY_GUESS = (0, 0, 1, 1, 2, 3, 1, 0, 2, 3, 0, 3, 5, 6, 7, 5, 7, 4, 4, 8, 8, 9, 9, 10, 11)
+STRATEGY_PROJECT = (False, True, False, True, False, False, False, False, False, False, False, False, False, False, False, False, False, False, True, False, True, False, False, False, False)  # noqa: E501  # fmt: skip
+STRATEGY_SMOOTH = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 1e-2, 1e-2, 1e-2, 1e-1, 1e-1, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-2, 0.0, 0.0)  # noqa: E501  # fmt: skip
 SNAP_MAX_TILT = 0.05  # guess 4 only turns a face that is within this angle (rad) of flat
 N_ATTEMPTS = len(STRATEGY_GUESS)
 FLIGHT_BEFORE = 6  # a step whose explicit prediction penetrates tries free flight before this attempt
@@ -469,6 +473,10 @@ def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore
     ``s = m_u / P_n`` (cut to the edge), and the torsional force takes what is left of
     ``m_n`` after the moment ``s (edge x P) . n`` of the tangential impulse there.
 
+    Guess 11 (``half < 0``): guess 10's system for a point, with ``m_u = 0`` in place of the
+    roll condition: the impulse at ``a1`` and the angular impulse about ``n`` that leave the
+    contact point at rest and stop the turn about ``n`` (torsional stick); the ECP stays.
+
     Returns False (``z`` as it was) when the contact point is not approaching the plane or the
     impulse does not push."""
     prm = model.prm
@@ -512,7 +520,7 @@ def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore
         vn += prm[P_N + i] * vc[i]
     if vn >= 0.0:
         return False
-    if half > 0.0:
+    if half != 0.0:
         return _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc)
     # K = I/m + [r]x^T Iw^-1 [r]x, column j from the unit impulse e_j
     Kmat = np.zeros((3, 3))
@@ -551,18 +559,23 @@ def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore
 
 @jit_alloc
 def _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # type: ignore[no-untyped-def]
-    """Guess 10's impact (:func:`_impact_guess`, ``half > 0``): ``iw`` the world inverse inertia
+    """The impacts of guesses 10 and 11 (:func:`_impact_guess`, ``half != 0``): ``iw`` the world inverse inertia
     (9, row-major), ``r`` the lever of the edge's middle, ``vc`` its velocity."""
     prm = model.prm
     sc = scr.sc
     u = np.empty(3)
     nv = prm[P_N : P_N + 3]
-    cross(edge, 0, nv, 0, u, 0)
-    ul = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-    if ul < 0.5:  # the edge is far from level
-        return False
-    for i in range(3):
-        u[i] /= ul
+    point = half < 0.0  # guess 11: a point that sticks, in torsion too (m_u = 0, the ECP stays)
+    if point:
+        for i in range(3):
+            u[i] = prm[P_T + i]
+    else:
+        cross(edge, 0, nv, 0, u, 0)
+        ul = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+        if ul < 0.5:  # the edge is far from level
+            return False
+        for i in range(3):
+            u[i] /= ul
     # columns: unit impulses along x, y, z at a1, unit angular impulses about u and n
     A = np.zeros((5, 5))
     tq = np.empty(3)
@@ -582,12 +595,12 @@ def _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # ty
         cross(dw, 0, r, 0, dv, 0)
         for i in range(3):
             A[i, j] = dv[i] + (1.0 / prm[P_MASS] if i == j else 0.0)
-        A[3, j] = dw[0] * u[0] + dw[1] * u[1] + dw[2] * u[2]
+        A[3, j] = (1.0 if j == 3 else 0.0) if point else dw[0] * u[0] + dw[1] * u[1] + dw[2] * u[2]
         A[4, j] = dw[0] * nv[0] + dw[1] * nv[1] + dw[2] * nv[2]
     b = np.empty(5)
     for i in range(3):
         b[i] = -vc[i]
-    b[3] = -(state[10] * u[0] + state[11] * u[1] + state[12] * u[2])
+    b[3] = 0.0 if point else -(state[10] * u[0] + state[11] * u[1] + state[12] * u[2])
     b[4] = -(state[10] * nv[0] + state[11] * nv[1] + state[12] * nv[2])
     if abs(np.linalg.det(A)) < 1e-300:
         return False
@@ -596,7 +609,7 @@ def _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # ty
     pn = nv[0] * P[0] + nv[1] * P[1] + nv[2] * P[2]
     if not pn > 0.0:
         return False
-    sof = min(max(sol[3] / pn, -half), half)
+    sof = 0.0 if point else min(max(sol[3] / pn, -half), half)
     # the torque of the impulses: r x P + m_u u + m_n n
     cross(r, 0, P, 0, tq, 0)
     press = 0.0
@@ -1398,7 +1411,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         # fresh contact guess at the predicted end pose (STRATEGY_GUESS)
                         for i in range(n):
                             z[i] = zsave[i]
-                        if guess == 9:
+                        if guess == 9 or guess == 11:
                             quat_step(state, 3, state, 10, hc, qs, 0)
                             quat_to_rot(qs, QS_Q, R, 0)
                             for i in range(3):
@@ -1416,7 +1429,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                     kl = off
                                     ml = mk
                                 off += B_FIXED + mk
-                            if not _impact_guess(z, kl, ml, state, hc, model, scr, edir, 0.0):
+                            if not _impact_guess(z, kl, ml, state, hc, model, scr, edir, 0.0 if guess == 9 else -1.0):
                                 continue
                         elif guess == 10:
                             # the level edge at the start pose, sticking at once
