@@ -19,31 +19,33 @@ Run from the repository root: ``python tools/line_landing.py``.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tumblemc.kernels import layout as L
-from tumblemc.kernels.residual import n_unknowns
-from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
 from tumblemc.model.params import SolverOptions
-from tumblemc.model.run import initial_contact, prepare, run_inputs
+from tumblemc.model.run import prepare, run_inputs
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fast_landings import before_step  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "landing_steps.npz"
 STEPS = {"line": 10221, "spin": 845}  # steps taken before the landing
 
 
-def run_2_110() -> dict[str, Any]:
-    """Inputs of run 110 of ``three_d_runs(n=400, seed=2)``."""
-    rng = np.random.default_rng(2)
-    for _ in range(111):
+def three_d_inputs(seed: int, k: int) -> dict[str, Any]:
+    """Inputs of run ``k`` of ``tumblemc.stress.three_d_runs(n, seed)`` (any ``n > k``): its draws replayed."""
+    rng = np.random.default_rng(seed)
+    for _ in range(k + 1):
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         angle = float(rng.uniform(0.0, 30.0))
+    preset, incline = [(p, inc) for p in ("paper", "aluminum") for inc in (0.0, 20.0)][k % 4]
     return {
-        "preset": "aluminum",
-        "incline_deg": 0.0,
+        "preset": preset,
+        "incline_deg": incline,
         "field_mT": 20.0,
         "freq_hz": 1.0,
         "offset_deg": angle,
@@ -52,39 +54,22 @@ def run_2_110() -> dict[str, Any]:
 
 
 def run_39() -> dict[str, Any]:
-    """Inputs of 3-D run 39 (the 40th draw of ``default_rng(2026)``, as in ``three_d_runs``)."""
-    rng = np.random.default_rng(2026)
-    for _ in range(40):
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        angle = float(rng.uniform(0.0, 30.0))
-    return {
-        "preset": "aluminum",
-        "incline_deg": 20.0,
-        "field_mT": 20.0,
-        "freq_hz": 1.0,
-        "offset_deg": angle,
-        "offset_axis": tuple(float(a) for a in axis),
-    }
+    """Inputs of the stress campaign's 3-D run 39 (seed 2026)."""
+    return three_d_inputs(2026, 39)
+
+
+def run_2_110() -> dict[str, Any]:
+    """Inputs of run 110 of ``three_d_runs(n=400, seed=2)``."""
+    return three_d_inputs(2, 110)
 
 
 def main() -> None:
     out = dict(np.load(OUT))
     for name, inputs, solver in (("line", run_39(), SolverOptions(warm_order=4)), ("spin", run_2_110(), SolverOptions())):
         sp = prepare(run_inputs(shape="cuboid", duration_s=0.6, solver=solver, **inputs))
-        buf = make_buffers(n_unknowns(sp.geo.pstart))
-        area0, resting = initial_contact(sp)
-        start = Start(sp.state0.copy(), 0.0, area0, resting)
-        k = STEPS[name]
-        rec = empty_record(k, k)
-        status, failed, _ = run(Model(sp.prm, sp.geo), sp.solver.as_array(), start, Clock(sp.h, k, k), rec, buf)
-        assert status == L.ST_OK and failed == 0
-        out[f"{name}_state"] = start.state
-        out[f"{name}_z"] = buf.z.copy()
-        out[f"{name}_t"] = np.float64(rec[-1, L.R_T])
-        out[f"{name}_area"] = np.float64(rec[-1, L.R_AREA])
-        out[f"{name}_mode"] = np.float64(rec[-1, L.R_MODE])
-        print(f"{name}: t = {rec[-1, L.R_T] * sp.units.time:.5f} s")
+        print(name, end=": ")
+        for key, val in before_step(sp, STEPS[name]).items():
+            out[f"{name}_{key}"] = val
     np.savez(OUT, allow_pickle=False, **out)
     print(f"wrote {OUT}")
 

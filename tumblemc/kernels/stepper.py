@@ -642,25 +642,7 @@ def _level_edge(x, R, prm, geo, kp, tol, edge):  # type: ignore[no-untyped-def]
     height and every other support point lies more than ``tol`` above the lowest (a level
     edge, not a vertex or a face; a curved piece's line has more points and returns 0);
     ``edge`` receives its unit direction (world). Returns 0 otherwise."""
-    p0 = -1
-    p1 = -1
-    h0 = math.inf
-    h1 = math.inf
-    h2 = math.inf
-    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
-        hgt = _support_height(x, R, prm, geo, p)
-        if hgt < h0:
-            h2 = h1
-            p1 = p0
-            h1 = h0
-            p0 = p
-            h0 = hgt
-        elif hgt < h1:
-            h2 = h1
-            p1 = p
-            h1 = hgt
-        elif hgt < h2:
-            h2 = hgt
+    p0, p1, h0, h1, h2 = _lowest_three(x, R, prm, geo, kp)
     if p1 < 0 or h1 - h0 > tol or h2 - h0 <= tol:
         return 0.0
     el = 0.0
@@ -707,6 +689,33 @@ def _support_height(x, R, prm, geo, p):  # type: ignore[no-untyped-def]
 
 
 @jit
+def _lowest_three(x, R, prm, geo, kp):  # type: ignore[no-untyped-def]
+    """The lowest and second-lowest support points of piece ``kp`` at the pose ``x``, ``R``
+    and the heights of the three lowest: ``(p0, p1, h0, h1, h2)`` (``-1`` and ``inf`` where
+    the piece has fewer points; a tie goes to the point listed first)."""
+    p0 = -1
+    p1 = -1
+    h0 = math.inf
+    h1 = math.inf
+    h2 = math.inf
+    for p in range(geo.sup_start[kp], geo.sup_start[kp + 1]):
+        hgt = _support_height(x, R, prm, geo, p)
+        if hgt < h0:
+            h2 = h1
+            p1 = p0
+            h1 = h0
+            p0 = p
+            h0 = hgt
+        elif hgt < h1:
+            h2 = h1
+            p1 = p
+            h1 = hgt
+        elif hgt < h2:
+            h2 = hgt
+    return p0, p1, h0, h1, h2
+
+
+@jit
 def _snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     """Angular velocity for guess 8: ``w`` plus the rotation over ``h`` that turns the line
     through the two lowest support points (of the piece with the lowest one, at the pose
@@ -725,20 +734,7 @@ def _snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     if kbest < 0:
         return False
     # the lowest and second-lowest distinct support points of that piece
-    p0 = -1
-    p1 = -1
-    h0 = math.inf
-    h1 = math.inf
-    for p in range(geo.sup_start[kbest], geo.sup_start[kbest + 1]):
-        hgt = _support_height(x, R, prm, geo, p)
-        if hgt < h0:
-            p1 = p0
-            h1 = h0
-            p0 = p
-            h0 = hgt
-        elif hgt < h1:
-            p1 = p
-            h1 = hgt
+    p0, p1, h0, h1, _ = _lowest_three(x, R, prm, geo, kbest)
     if p1 < 0:
         return False
     e0 = 0.0
