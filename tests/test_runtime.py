@@ -99,7 +99,7 @@ def test_no_kernel_without_reference_counting_returns_an_array(tmp_path: Path) -
     proc = subprocess.run([sys.executable, "-c", CHECK, str(ROOT)], capture_output=True, text=True, env=env, check=True, cwd=ROOT)
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["bad_return"] == []
-    assert sorted(out["with_nrt"]) == ["batch.run_batch", "stepper._impact_guess", "stepper._line_impact", "stepper.run"]
+    assert sorted(out["with_nrt"]) == ["batch.run_batch", "stepper._impact_guess", "stepper._sticking_impact", "stepper.run"]
     assert out["unused"] == []  # a new kernel that the runs above do not reach: extend _exercise
     assert len(set(out["compiled"])) >= 40  # the loop above found the kernels (else the checks pass vacuously)
 

@@ -455,7 +455,7 @@ def _snap_flat(R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
 
 @jit_alloc
 def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore[no-untyped-def]
-    """Guesses 9 and 10 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
+    """Guesses 9, 10 and 11 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
 
     Guess 9 (``half == 0``): the impulse ``P`` that brings the contact point's velocity
     ``v_c = v + w x r`` (start of step, ``r = a1 - (x + h v)``) to rest, ``K P = -v_c`` with
@@ -521,7 +521,7 @@ def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore
     if vn >= 0.0:
         return False
     if half != 0.0:
-        return _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc)
+        return _sticking_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc)
     # K = I/m + [r]x^T Iw^-1 [r]x, column j from the unit impulse e_j
     Kmat = np.zeros((3, 3))
     e = np.zeros(3)
@@ -558,7 +558,7 @@ def _impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore
 
 
 @jit_alloc
-def _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # type: ignore[no-untyped-def]
+def _sticking_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # type: ignore[no-untyped-def]
     """The impacts of guesses 10 and 11 (:func:`_impact_guess`, ``half != 0``): ``iw`` the world inverse inertia
     (9, row-major), ``r`` the lever of the edge's middle, ``vc`` its velocity."""
     prm = model.prm
@@ -610,7 +610,9 @@ def _line_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # ty
     if not pn > 0.0:
         return False
     sof = 0.0 if point else min(max(sol[3] / pn, -half), half)
-    # the torque of the impulses: r x P + m_u u + m_n n
+    # the torque of the solved impulses, r x P + m_u u + m_n n; where the friction cone
+    # cuts P below, v+ takes the cut impulse and w+ keeps these (a guess either way: Newton
+    # balances the two)
     cross(r, 0, P, 0, tq, 0)
     press = 0.0
     for i in range(3):
