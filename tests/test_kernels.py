@@ -494,13 +494,45 @@ def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
     x = b.copy()
     cond = np.linalg.cond(A)
     assert cond < 1e10  # the construction keeps these systems well posed
-    assert lu_factor(M, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0)
+    assert lu_factor(M, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0, A, True)
     assert sorted(ws.piv) == list(range(n))
     lu_solve(M, ws.piv, x, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, ws.y)
     np.testing.assert_allclose(A @ x, b, rtol=0, atol=1e-13 * cond * (1 + np.abs(b).max()))
     S = A.copy()
     S[:, seed % n] = 0.0  # a zero column: singular
-    assert not lu_factor(S, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0)
+    assert not lu_factor(S.copy(), ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0, S, True)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_lu_factor_row_test_factors_rows_of_disparate_scale(seed: int) -> None:
+    """A regular matrix with one row 1e14 times the others is factored with the row test.
+
+    The test against the largest entry alone calls it singular (every pivot of a unit row is
+    below 1e-13 of the big row's entries: the Newton matrix of an impact, whose torsional
+    friction row is ``mu e_r lam_n``, docs/solver_gaps.md section 7). With the row test the
+    solution is numpy's, and a row that is another row to 1e-15 is still refused.
+    """
+    from tumblemc.kernels.newton import lu_factor, lu_solve
+
+    rng = np.random.default_rng(100 + seed)
+    n = 6 + seed % 19
+    A = np.where(rng.random((n, n)) < 0.3, rng.standard_normal((n, n)), 0.0)
+    A[np.arange(n), rng.permutation(n)] += rng.choice([-2.0, -1.0, 1.0, 2.0], n)
+    assert np.linalg.cond(A) < 1e10
+    big = seed % n
+    A[big] *= 1e14
+    ws = make_workspace(n)
+    assert not lu_factor(A.copy(), ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0, A, False)
+    M = A.copy()
+    assert lu_factor(M, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0, A, True)
+    b = rng.standard_normal(n)
+    x = b.copy()
+    lu_solve(M, ws.piv, x, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, ws.y)
+    np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-8, atol=1e-8 * np.abs(x).max())
+    D = A.copy()
+    other = (big + 1) % n
+    D[other] = D[(big + 2) % n] * (1.0 + 1e-15)  # dependent to rounding: still singular
+    assert not lu_factor(D.copy(), ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0, D, True)
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -602,8 +634,8 @@ def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
     else:
         ws1, ws2 = make_workspace(n + 2), make_workspace(n + 2)
         A1, A2 = J2.copy(), J2.copy()
-        ok1 = lu_factor(A1, ws1.piv, n, ws1.unz, ws1.ucnt, ws1.lnz, ws1.lcnt, -1.0)
-        ok2 = lu_factor(A2, ws2.piv, n, ws2.unz, ws2.ucnt, ws2.lnz, ws2.lcnt, amax)
+        ok1 = lu_factor(A1, ws1.piv, n, ws1.unz, ws1.ucnt, ws1.lnz, ws1.lcnt, -1.0, J2, False)
+        ok2 = lu_factor(A2, ws2.piv, n, ws2.unz, ws2.ucnt, ws2.lnz, ws2.lcnt, amax, J2, False)
         assert ok1 == ok2
         assert np.array_equal(A1, A2, equal_nan=True) and np.array_equal(ws1.piv, ws2.piv)
 

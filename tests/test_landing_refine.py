@@ -42,9 +42,10 @@ def _step(case: str, run_kw: dict[str, Any], solver: tumblemc.SolverOptions, dt_
     return out, rec[1], start, (spec, buf)
 
 
-def _one_step(case: str, landing_work: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _one_step(case: str, landing_work: float, pivot_row_test: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Record row, end state and last solution of the saved step; and the refusal threshold."""
-    (status, failed, _), row, start, (spec, buf) = _step(case, RUN_122, tumblemc.SolverOptions(landing_work=landing_work))
+    solver = tumblemc.SolverOptions(landing_work=landing_work, pivot_row_test=pivot_row_test)
+    (status, failed, _), row, start, (spec, buf) = _step(case, RUN_122, solver)
     assert status == L.ST_OK and failed == 0
     scale = spec.prm[L.P_MASS] * spec.prm[L.P_G] + field_work_bound(spec.prm, spec.h)
     return row, start.state, buf.z.copy(), tumblemc.SolverOptions().landing_work * scale
@@ -60,14 +61,29 @@ def test_refined_landing_does_far_less_positive_normal_work() -> None:
 
 
 def test_refinement_that_stalls_keeps_the_full_step_bit_for_bit() -> None:
-    coarse, state0, z0, limit = _one_step("kept", 0.0)
-    fine, state1, z1, _ = _one_step("kept", tumblemc.SolverOptions().landing_work)
+    """A refinement whose sub-steps stall keeps the full step, bit for bit.
+
+    The saved landing at 17.8 m/s stalled in its sub-steps with the LU's matrix-wide pivot
+    test (``pivot_row_test=0``, the rule when it was saved); with the row test they converge
+    and the refinement is kept (the next test).
+    """
+    coarse, state0, z0, limit = _one_step("kept", 0.0, 0)
+    fine, state1, z1, _ = _one_step("kept", tumblemc.SolverOptions().landing_work, 0)
     assert coarse[L.R_LED + L.L_WN] > 100 * limit
     assert fine[L.R_NIT] > coarse[L.R_NIT]  # it tried
     assert np.array_equal(state0, state1) and np.array_equal(z0, z1)
     skip = {L.R_NIT, L.R_FALLBACK}  # the solver's work counts the sub-steps tried
     cols = [c for c in range(fine.shape[0]) if c not in skip]
     assert np.array_equal(fine[cols], coarse[cols])
+
+
+def test_fast_landing_refined_with_the_row_test() -> None:
+    """With the LU's row test (the default), the 17.8 m/s landing's sub-steps converge: refined, less positive work."""
+    coarse, _, _, limit = _one_step("kept", 0.0)
+    fine, _, _, _ = _one_step("kept", tumblemc.SolverOptions().landing_work)
+    assert coarse[L.R_LED + L.L_WN] > 100 * limit
+    assert fine[L.R_SUB] >= 1 and fine[L.R_RES] <= tumblemc.SolverOptions().tol
+    assert fine[L.R_LED + L.L_WN] < coarse[L.R_LED + L.L_WN]
 
 
 def test_ordinary_runs_are_not_refined() -> None:
@@ -95,30 +111,49 @@ def test_slow_landing_converges_at_a_longer_step() -> None:
     assert status == L.ST_OK and failed == 0 and row[L.R_RES] <= tumblemc.SolverOptions().tol
 
 
+def test_slow_landing_at_a_small_step_converges_with_the_row_test() -> None:
+    """The saved slow landing at dt = 5e-6 s converges at dt with the LU's row test (the default).
+
+    Its Newton matrices were called singular by the matrix-wide pivot test (docs/solver_gaps.md,
+    section 7), so that no strategy solved it at any depth.
+    """
+    (status, failed, _), row, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
+    assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 0
+    assert row[L.R_RES] <= tumblemc.SolverOptions().tol
+
+
 def test_slow_landing_at_a_small_step_is_kept_loose_not_failed() -> None:
     """The saved slow landing at dt = 5e-6 s is kept as loose, not failed (``impulse_accept_tol``).
 
-    No strategy solves it to ``tol`` at any depth; its best attempt balances momentum to 2e-7
-    of the impact. With the rule off (0) the step fails, as before 2026-11-27.
+    With the LU's matrix-wide pivot test (``pivot_row_test=0``, the rule before 2026-11-28), no
+    strategy solves it to ``tol`` at any depth; its best attempt balances momentum to 2e-7 of
+    the impact. With the rule off (0) the step fails, as before 2026-11-27.
     """
-    (status, failed, _), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())
+    P0 = {"pivot_row_test": 0}
+    (status, failed, _), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(**P0))
     assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 1
     assert row[L.R_IMPULSE] == 1  # counted apart: kept by the impulse rule, not by accept_tol
     assert row[L.R_RES] > 0.1  # not converged in the absolute sense: the record says so
     assert row[L.R_SUB] == tumblemc.SolverOptions().max_substep_depth  # it got there at the smallest sub-step
-    (status, failed, _), row0, end0, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=0.0))
+    (status, failed, _), row0, end0, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=0.0, **P0))
     assert failed == 1 and row0[L.R_LOOSE] == 0 and row0[L.R_IMPULSE] == 0
     assert np.array_equal(end.state, end0.state)  # the same attempt, kept either way: only the label differs
     # the edge stops: the downward speed drops from 12 to below 1 (scaled), the ECP at the plane
     assert end.state[9] > -1.0 and row[L.R_PEN] < 1e-3
     # the scale matters: at 1e-8 of the step's momenta (the attempt balances them to 1.7e-7) it fails
-    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=1e-8))
+    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(impulse_accept_tol=1e-8, **P0))
     assert failed == 1
     # a study stops a run at its first failed step (max_failed_steps = 1): kept loose, it runs on
-    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1))
+    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1, **P0))
     assert status == L.ST_OK and failed == 0
-    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1, impulse_accept_tol=0.0))
+    (status, failed, _), _, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(max_failed_steps=1, impulse_accept_tol=0.0, **P0))
     assert status == L.ST_STOPPED
+
+
+@pytest.mark.parametrize("bad", [-1, 2, 0.5, True])
+def test_pivot_row_test_out_of_range_names_the_field(bad: object) -> None:
+    with pytest.raises(ValueError, match="pivot_row_test"):
+        tumblemc.SolverOptions(pivot_row_test=bad)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("bad", [-1e-9, 2e-3, float("nan")])

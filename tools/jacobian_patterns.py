@@ -69,9 +69,9 @@ rec = []
 lu = newton.lu_factor
 lm = newton._lm_direction
 in_lm = [False]
-def spy(A, order, n, unz, ucnt, lnz, lcnt, amax):
+def spy(A, order, n, unz, ucnt, lnz, lcnt, amax, J, rowrel):
     vals = A[:n, :n].copy()
-    ok = lu(A, order, n, unz, ucnt, lnz, lcnt, amax)
+    ok = lu(A, order, n, unz, ucnt, lnz, lcnt, amax, J, rowrel)
     if not in_lm[0]:  # a Newton matrix, not the Levenberg-Marquardt fallback's
         rec.append((vals, tuple(int(i) for i in order[:n]), bool(ok)))
     return ok

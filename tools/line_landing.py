@@ -1,4 +1,4 @@
-"""Save two 3-D landings of ``tests/test_landing_gap.py`` (``line_*``, ``spin_*`` in ``tests/data/landing_steps.npz``).
+"""Save three landings of ``tests/test_landing_gap.py`` (``line_*``, ``spin_*``, ``pivot_*`` in ``tests/data/landing_steps.npz``).
 
 ``line``: stress campaign 3-D run 39 (``tumblemc.stress.three_d_runs``, seed 2026: the cuboid on
 aluminum at 20 deg, magnetisation tilted 23.4 deg about (-0.457, 0.455, -0.764)) with
@@ -11,10 +11,18 @@ at 0.04 m/s (docs/solver_gaps.md, section 5): the step that guess 10 solves.
 thrown up by the field, lands on a vertex while turning about the normal at 426 rad/s: the
 torsional friction stops the turn at once (``e_r`` = 0.1 m), the step that guess 11 solves.
 
+``pivot``: issue 13's reproducer 1 (``tumblemc.claims.SNAP_HOP``, cuboid) at dt = 3.125e-6 s,
+integrated up to the step before t = 0.42259 s: the edge that touched in the last step
+lands at 0.06 m/s while sliding at 0.14 m/s, and the impact sticks. Every strategy and
+every halving failed there until ``lu_factor`` tested its pivots against their own row
+(docs/solver_gaps.md, section 7). The committed entry was written with the code before that
+change (37292ac): since then the run takes another path (the row test changes other steps
+by rounding), so the tool at a later commit writes another state.
+
 The state, the warm start and the contact before each step are saved; the other entries of
 the file (``edge_*``, ``impact_*``) are kept as they are.
 
-Run from the repository root: ``python tools/line_landing.py``.
+Run from the repository root: ``python tools/line_landing.py [NAME ...]`` (default: all three).
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from tumblemc.claims import SNAP_HOP
 from tumblemc.model.params import SolverOptions
 from tumblemc.model.run import prepare, run_inputs
 
@@ -32,7 +41,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fast_landings import before_step  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "landing_steps.npz"
-STEPS = {"line": 10221, "spin": 845}  # steps taken before the landing
+STEPS = {"line": 10221, "spin": 845, "pivot": 135227}  # steps taken before the landing
+PIVOT = {"shape": "cuboid", "duration_s": 1.0, "dt": 3.125e-6, **SNAP_HOP}
 
 
 def three_d_inputs(seed: int, k: int) -> dict[str, Any]:
@@ -63,10 +73,16 @@ def run_2_110() -> dict[str, Any]:
     return three_d_inputs(2, 110)
 
 
-def main() -> None:
+def main(names: list[str]) -> None:
     out = dict(np.load(OUT))
-    for name, inputs, solver in (("line", run_39(), SolverOptions(warm_order=4)), ("spin", run_2_110(), SolverOptions())):
-        sp = prepare(run_inputs(shape="cuboid", duration_s=0.6, solver=solver, **inputs))
+    for name in names or list(STEPS):
+        if name == "pivot":
+            sp = prepare(run_inputs(**PIVOT))  # type: ignore[arg-type]
+        elif name in STEPS:
+            inputs, solver = (run_39(), SolverOptions(warm_order=4)) if name == "line" else (run_2_110(), SolverOptions())
+            sp = prepare(run_inputs(shape="cuboid", duration_s=0.6, solver=solver, **inputs))
+        else:
+            raise SystemExit(f"unknown landing {name!r} (allowed: {', '.join(STEPS)})")
         print(name, end=": ")
         for key, val in before_step(sp, STEPS[name]).items():
             out[f"{name}_{key}"] = val
@@ -75,4 +91,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

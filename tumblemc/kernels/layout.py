@@ -107,7 +107,11 @@ O_SMOOTH_STALLED = 13
 # solutions of the order, 2 up to this, that predicted the step just solved best (2: always
 # the quadratic; stepper.run, stepper._best_order; SolverOptions.warm_order)
 O_WARM = 14
-N_OPT = 15
+# 1 (default): a Newton matrix's pivot that fails lu_factor's test against the largest
+# entry is tested against its own row; 0: the matrix-wide test only (newton.solve;
+# SolverOptions.pivot_row_test)
+O_PIVROW = 15
+N_OPT = 16
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

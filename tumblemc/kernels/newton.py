@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .layout import O_ARMIJO, O_CHORD, O_MAXIT, O_MINSTEP, O_TOL, S_H, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
+from .layout import O_ARMIJO, O_CHORD, O_MAXIT, O_MINSTEP, O_PIVROW, O_TOL, S_H, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
 from .residual import N_RS, residual
 
 #: a chord iteration is kept while it divides the residual's max-norm by at least 2
@@ -25,6 +25,9 @@ CHORD_RATE = 0.5
 #: a chord solve that took this many iterations marks its factors stale: the next step
 #: factors afresh (measured on 7 runs: 3 against never and 2, docs/chord.md)
 CHORD_STALE = 3
+#: ``lu_factor``: a pivot below this fraction of the matrix's largest magnitude (or, with
+#: its row test, of its own row's) counts as singular
+PIVOT_REL = 1e-13
 
 Workspace = namedtuple(
     "Workspace",
@@ -108,7 +111,7 @@ def copy_amax(J, A, n):  # type: ignore[no-untyped-def]
 
 
 @jit
-def lu_factor(A, order, n, unz, ucnt, lnz, lcnt, amax):  # type: ignore[no-untyped-def]
+def lu_factor(A, order, n, unz, ucnt, lnz, lcnt, amax, J, rowrel):  # type: ignore[no-untyped-def]
     """In-place LU with partial pivoting of ``A[:n, :n]``. False if numerically singular.
 
     Rows stay where they are: ``order[k]`` is the row chosen as the k-th pivot (the same
@@ -119,7 +122,14 @@ def lu_factor(A, order, n, unz, ucnt, lnz, lcnt, amax):  # type: ignore[no-untyp
     diagonal in row ``order[k]`` of U, ``lnz[k, :lcnt[k]]`` the rows holding a multiplier
     of column k (int64 workspaces). The factors are those of the dense algorithm.
     ``amax``: ``max |A[:n, :n]|`` when the caller has it (:func:`copy_amax`), or < 0 to
-    have it computed here; pivots below ``1e-13 amax`` count as singular.
+    have it computed here. A pivot below ``1e-13 amax`` counts as singular, unless
+    ``rowrel`` and it is at least ``1e-13`` times the largest magnitude of its own row of
+    ``J`` (the matrix that ``A`` holds a copy of, unfactored): the Newton matrix's rows
+    differ in scale by up to 1e9 at an impact (the torsional friction row is ``mu e_r
+    lam_n``, with ``lam_n`` an impulse over ``h``), and a test against the largest entry
+    alone calls regular matrices singular there (docs/solver_gaps.md, section 7). The row
+    test runs only where the global one fails, so every matrix that passed it is factored
+    as before.
     """
     for i in range(n):
         order[i] = i
@@ -132,7 +142,7 @@ def lu_factor(A, order, n, unz, ucnt, lnz, lcnt, amax):  # type: ignore[no-untyp
                     amax = v
     if not amax > 0.0:
         return False
-    tiny = 1e-13 * amax
+    tiny = PIVOT_REL * amax
     for k in range(n):
         # one pass over the rows not yet pivoted: the nonzeros of column k (by position)
         # and the first largest of them
@@ -149,7 +159,15 @@ def lu_factor(A, order, n, unz, ucnt, lnz, lcnt, amax):  # type: ignore[no-untyp
                     best = v
                     p = i
         if not best > tiny:
-            return False
+            if not (rowrel and best > 0.0):
+                return False
+            rmax = 0.0
+            for j in range(n):
+                v = abs(J[order[p], j])
+                if v > rmax:
+                    rmax = v
+            if not best > PIVOT_REL * rmax:
+                return False
         rk = order[p]
         if p != k:
             order[p] = order[k]
@@ -257,7 +275,7 @@ def _lm_direction(J, F, g, d, n, nu, ws):  # type: ignore[no-untyped-def]
     A = ws.A
     ws.lu_h[0] = 0.0  # A no longer holds a Newton matrix's factors (solve's chord start)
     jtj_shift(J, n, nu, A, ws.piv)  # piv as scratch: lu_factor sets it itself
-    if not lu_factor(A, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0):
+    if not lu_factor(A, ws.piv, n, ws.unz, ws.ucnt, ws.lnz, ws.lcnt, -1.0, A, False):
         return False
     for i in range(n):
         d[i] = -g[i]
@@ -386,6 +404,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
     nchord = 0
     lu_h = ws.lu_h
     hstep = prob.sc[S_H]
+    rowrel = opts[O_PIVROW] > 0.5
     if chord and lu_h[0] == hstep and mu_s == 0.0 and opts[O_CHORD] > 0.0:
         # chord start: the factors still in A are those of the last plain Newton matrix
         # of this step length (an earlier step's); each iteration costs a residual without
@@ -462,7 +481,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         # 1. semismooth Newton
         amax = copy_amax(J, A, n)
         lu_h[0] = 0.0
-        if lu_factor(A, piv, n, unz, ucnt, lnz, lcnt, amax):
+        if lu_factor(A, piv, n, unz, ucnt, lnz, lcnt, amax, J, rowrel):
             if mu_s == 0.0:
                 lu_h[0] = hstep
             for i in range(n):

@@ -374,6 +374,16 @@ class SolverOptions:
         step (a landing no strategy solves on that path, docs/solver_gaps.md), where 3 has
         none.
         Allowed: 2 to 5.
+    pivot_row_test : 1 (the default): a pivot of the Newton matrix that fails the LU's
+        singularity test (below 1e-13 of the matrix's largest magnitude) is tested against
+        the largest magnitude of its own row instead, and the factorisation goes on if it
+        passes that. At an impact the torsional friction row (``mu e_r lam_n``, with the
+        authors' ``e_r = 0.1 m`` and a force ``lam_n`` of an impulse over the step) is up to
+        1e9 times the unit rows, and the matrix-wide test called regular matrices singular.
+        The solver then took a Levenberg-Marquardt direction that stalls (docs/solver_gaps.md,
+        section 7: the small-step landings of reproducer 1). 0: the matrix-wide test alone,
+        the rule before 2026-11-28, bit for bit. Matrices that pass the matrix-wide test are
+        factored the same way under either setting. Allowed: 0 or 1.
     """
 
     tol: float = 1e-9
@@ -388,10 +398,11 @@ class SolverOptions:
     chord_iter: int = 4
     smooth_stalled: int = 1
     warm_order: int = 3
+    pivot_row_test: int = 1
 
     def __post_init__(self) -> None:
         check_number("tol", self.tol, _POSITIVE)
-        for name in ("max_iter", "max_substep_depth", "max_failed_steps", "chord_iter", "smooth_stalled", "warm_order"):
+        for name in ("max_iter", "max_substep_depth", "max_failed_steps", "chord_iter", "smooth_stalled", "warm_order", "pivot_row_test"):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
                 raise ValueError(f"{name}={v!r} is not allowed (allowed: an integer)")
@@ -406,6 +417,7 @@ class SolverOptions:
         check_number("chord_iter", self.chord_iter, "", 0, 100)
         check_number("smooth_stalled", self.smooth_stalled, "", 0, 1)
         check_number("warm_order", self.warm_order, "", 2, 5)
+        check_number("pivot_row_test", self.pivot_row_test, "", 0, 1)
         if 0.0 < self.accept_tol < self.tol:
             raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
@@ -426,4 +438,5 @@ class SolverOptions:
         a[L.O_CHORD] = self.chord_iter
         a[L.O_SMOOTH_STALLED] = float(self.smooth_stalled)
         a[L.O_WARM] = float(self.warm_order)
+        a[L.O_PIVROW] = float(self.pivot_row_test)
         return a
