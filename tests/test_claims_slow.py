@@ -135,12 +135,14 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     belong to one trajectory: the one with a fresh Newton matrix at every iteration
     (``chord_iter = 0``), every strategy tried at a stall (``smooth_stalled = 1``) and the
     quadratic warm start (``warm_order = 2``; with the cubic one the slide takes another
-    path, on which the run without accept_tol has no step to halve and keep). The
+    path, on which the run without accept_tol has no step to halve and keep), and the LU's
+    matrix-wide pivot test (``pivot_row_test = 0``; with the row test the slide takes another
+    path without a loose step). The
     chord start's solutions differ from those within ``tol``, the
     slide amplifies that, and it goes elsewhere (with ``accept_tol = 0`` it has 4 failed
     steps, with the defaults 0).
     """
-    newton = {"chord_iter": 0, "smooth_stalled": 1, "warm_order": 2}
+    newton = {"chord_iter": 0, "smooth_stalled": 1, "warm_order": 2, "pivot_row_test": 0}
     kw = dict(
         shape="curved",
         preset="aluminum",
