@@ -19,8 +19,8 @@ strategy and every halving used to fail (the best attempt was kept, a failed ste
   sticks in torsion too; also saved by ``tools/line_landing.py``);
 - ``pivot``: an edge landing of reproducer 1 at dt = 3.125e-6 s (t = 0.42259 s) whose
   sticking impact has a regular Newton matrix that ``lu_factor`` called singular, because
-  the torsional friction row (``mu e_r lam_n``) is 1e6 times the unit rows at an impact
-  force of 3,000 (scaled): solved since the pivot test looks at the pivot's own row
+  the torsional friction row (``mu e_r lam_n``) is 3e6 times the unit rows at an impact
+  force of 3,194 (scaled): solved since the pivot test looks at the pivot's own row
   (docs/solver_gaps.md, section 7; also saved by ``tools/line_landing.py``).
 
 The slow tests run the whole reproducers. The ``impact`` state sits 1.3 cm from the origin,
