@@ -111,7 +111,11 @@ O_WARM = 14
 # entry is tested against its own row; 0: the matrix-wide test only (newton.solve;
 # SolverOptions.pivot_row_test)
 O_PIVROW = 15
-N_OPT = 16
+# > 0: a Newton solve stops (ST_MAXIT) after this many iterations in which neither the
+# residual's max-norm halved nor the smoothing parameter fell (newton.solve;
+# SolverOptions.stall_window); 0 (default): only the iteration limit stops it
+O_STALL = 16
+N_OPT = 17
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .layout import O_ARMIJO, O_CHORD, O_MAXIT, O_MINSTEP, O_PIVROW, O_TOL, S_H, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
+from .layout import O_ARMIJO, O_CHORD, O_MAXIT, O_MINSTEP, O_PIVROW, O_STALL, O_TOL, S_H, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
 from .residual import N_RS, residual
 
 #: a chord iteration is kept while it divides the residual's max-norm by at least 2
@@ -444,6 +444,9 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
     theta = residual(z, prob, F, J, work, True, mu_s)
     status = ST_MAXIT
     fnorm = 0.0
+    stall = int(opts[O_STALL]) if smooth0 > 0.0 else 0  # the smoothing continuation's up-to-300 iterations only
+    best = math.inf  # the max-norm when it last halved (or the smoothing parameter last fell) ...
+    last = 0  # ... and the iteration count then
     while True:
         fnorm = 0.0
         for i in range(n):
@@ -456,6 +459,8 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         if mu_s > 0.0 and fnorm <= max(tol, 0.1 * mu_s):
             mu_s = 0.1 * mu_s if 0.1 * mu_s > 1e-3 * tol else 0.0
             theta = residual(z, prob, F, J, work, True, mu_s)
+            best = math.inf
+            last = it
             continue
         if fnorm <= tol and mu_s == 0.0:
             status = ST_OK
@@ -463,6 +468,13 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         if it >= maxit:
             status = ST_MAXIT
             break
+        if stall > 0:
+            if fnorm <= 0.5 * best:
+                best = fnorm
+                last = it
+            elif it - last >= stall:
+                status = ST_MAXIT
+                break
         it += 1
         # g = J^T F row by row (the same sums, in the same order, as column dot products;
         # contiguous and free of dependent-add chains)

@@ -399,10 +399,11 @@ class SolverOptions:
     smooth_stalled: int = 1
     warm_order: int = 3
     pivot_row_test: int = 1
+    stall_window: int = 0
 
     def __post_init__(self) -> None:
         check_number("tol", self.tol, _POSITIVE)
-        for name in ("max_iter", "max_substep_depth", "max_failed_steps", "chord_iter", "smooth_stalled", "warm_order", "pivot_row_test"):
+        for name in ("max_iter", "max_substep_depth", "max_failed_steps", "chord_iter", "smooth_stalled", "warm_order", "pivot_row_test", "stall_window"):
             v = getattr(self, name)
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
                 raise ValueError(f"{name}={v!r} is not allowed (allowed: an integer)")
@@ -418,6 +419,7 @@ class SolverOptions:
         check_number("smooth_stalled", self.smooth_stalled, "", 0, 1)
         check_number("warm_order", self.warm_order, "", 2, 5)
         check_number("pivot_row_test", self.pivot_row_test, "", 0, 1)
+        check_number("stall_window", self.stall_window, "", 0, 10_000)
         if 0.0 < self.accept_tol < self.tol:
             raise ValueError(f"accept_tol={self.accept_tol!r} is below tol={self.tol!r} (allowed: 0, or from tol to 1)")
 
@@ -439,4 +441,5 @@ class SolverOptions:
         a[L.O_SMOOTH_STALLED] = float(self.smooth_stalled)
         a[L.O_WARM] = float(self.warm_order)
         a[L.O_PIVROW] = float(self.pivot_row_test)
+        a[L.O_STALL] = float(self.stall_window)
         return a
