@@ -113,7 +113,7 @@ O_WARM = 14
 O_PIVROW = 15
 # > 0: a Newton solve stops (ST_MAXIT) after this many iterations in which neither the
 # residual's max-norm halved nor the smoothing parameter fell (newton.solve;
-# SolverOptions.stall_window); 0 (default): only the iteration limit stops it
+# SolverOptions.stall_window, default 80); 0: only the iteration limit stops it
 O_STALL = 16
 N_OPT = 17
 
