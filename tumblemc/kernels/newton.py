@@ -346,7 +346,10 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         The step's system (:class:`tumblemc.kernels.residual.Problem`).
     ws : Workspace
     opts : float64[N_OPT]
-        ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``.
+        ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``,
+        ``O_PIVROW`` (``lu_factor``'s row test) and ``O_STALL``: with ``smooth0 > 0``, stop
+        (``ST_MAXIT``) after that many iterations in which neither ``||Phi||_inf`` halved nor
+        the smoothing parameter fell (0: never).
     out : int64[3]
         Receives ``(iterations, fallbacks, 0)``; iterations count the chord ones too.
     project : bool

@@ -1224,6 +1224,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     opts_fast[O_MAXIT] = min(opts[O_MAXIT], FAST_MAXIT)
     # the smoothing continuation converges slowly (100-300 iterations) but finds the
     # impulsive feature switches that the plain attempts miss; it only runs at such events
+    # (an attempt that stops progressing for O_STALL iterations is cut: SolverOptions.stall_window)
     opts_smooth = opts.copy()
     opts_smooth[O_MAXIT] = max(opts[O_MAXIT], SMOOTH_MAXIT)
 
