@@ -36,12 +36,11 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tests.tooling import load_tool
+from tests.tooling import load_tool, one_step
 from tumblemc.claims import SNAP_HOP
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.field import field_work_bound
-from tumblemc.kernels.residual import n_unknowns
-from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
+from tumblemc.kernels.stepper import Model
 from tumblemc.model.run import prepare, run_inputs
 from tumblemc.model.shapes.library import get_shape
 
@@ -59,30 +58,24 @@ CASES = {
 
 @pytest.mark.parametrize("case", ["edge", "impact", "line", "spin", "pivot"])
 def test_saved_landing_step_converges(case: str) -> None:
-    d = np.load(DATA)
     spec = prepare(run_inputs(get_shape("cuboid"), rotation="momentum", **CASES[case]))  # type: ignore[arg-type]
-    buf = make_buffers(n_unknowns(spec.geo.pstart))
-    buf.z[:] = d[f"{case}_z"]
-    state = d[f"{case}_state"].copy()
-    rec = empty_record(1, 1)
-    start = Start(state, float(d[f"{case}_t"]), float(d[f"{case}_area"]), bool(d[f"{case}_mode"] > 0))
-    status, failed, _ = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h, 1, 1), rec, buf)
+    (status, failed, _), row, _, _ = one_step(np.load(DATA), spec, f"{case}_")
     assert status == L.ST_OK and failed == 0
-    assert rec[1, L.R_RES] <= spec.solver.tol
-    assert rec[1, L.R_LN] > 0.0  # it landed
+    assert row[L.R_RES] <= spec.solver.tol
+    assert row[L.R_LN] > 0.0  # it landed
     if case == "pivot":
         # Newton solves it once the matrix is factored: a few strategies, no sub-step (before
         # the row test: 741,372 iterations over every strategy and 8 halvings, then failed)
-        assert rec[1, L.R_NIT] < 100 and rec[1, L.R_SUB] == 0
+        assert row[L.R_NIT] < 100 and row[L.R_SUB] == 0
     else:
-        assert rec[1, L.R_NIT] > 100  # still a hard step: the warm start alone does not solve it
+        assert row[L.R_NIT] > 100  # still a hard step: the warm start alone does not solve it
     if case == "line":
         # energy made: 2.3e-3 m g x 0.1 mm, positive normal work that halves with the step (first
         # order, as at every landing: docs/solver_gaps.md, section 4), below the landing
         # refinement's threshold: landing_work x (m g x 0.1 mm + the field's work bound per step)
-        assert rec[1, L.R_LED + L.L_GAIN] <= spec.solver.landing_work * (1.0 + field_work_bound(spec.prm, spec.h))
+        assert row[L.R_LED + L.L_GAIN] <= spec.solver.landing_work * (1.0 + field_work_bound(spec.prm, spec.h))
     else:
-        assert rec[1, L.R_LED + L.L_GAIN] <= 1e-3  # energy made: under 0.1% of m g x 0.1 mm
+        assert row[L.R_LED + L.L_GAIN] <= 1e-3  # energy made: under 0.1% of m g x 0.1 mm
 
 
 @pytest.mark.slow

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tests.tooling import load_tool
+from tests.tooling import load_tool, one_step
 from tumblemc.claims import SNAP_HOP
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.field import field_work_bound
-from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
+from tumblemc.kernels.stepper import Start
 from tumblemc.model.run import prepare, run_inputs
 
 DATA = Path(__file__).parent / "data" / "fast_landings.npz"
@@ -32,14 +32,9 @@ SMALL_STEP = {**FAST_LANDINGS.SMALL_STEP, **SNAP_HOP}
 
 def _step(case: str, run_kw: dict[str, Any], solver: tumblemc.SolverOptions, dt_factor: float = 1.0) -> tuple[Any, np.ndarray, Start, Any]:
     """One step of length ``dt_factor x dt`` from the saved start of ``case``: (status, failed, t_decided), record row, end, spec."""
-    d = np.load(DATA)
     spec = prepare(run_inputs(**run_kw, solver=solver))
-    buf = make_buffers(d[f"{case}_z"].shape[0])
-    buf.z[:] = d[f"{case}_z"]
-    start = Start(d[f"{case}_state"].copy(), float(d[f"{case}_t"]), float(d[f"{case}_area"]), bool(d[f"{case}_mode"] > 0))
-    rec = empty_record(1, 1)
-    out = run(Model(spec.prm, spec.geo), solver.as_array(), start, Clock(spec.h * dt_factor, 1, 1), rec, buf)
-    return out, rec[1], start, (spec, buf)
+    out, row, start, buf = one_step(np.load(DATA), spec, f"{case}_", h=spec.h * dt_factor)
+    return out, row, start, (spec, buf)
 
 
 def _one_step(case: str, landing_work: float, pivot_row_test: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
@@ -127,9 +122,10 @@ def test_slow_landing_at_a_small_step_is_kept_loose_not_failed() -> None:
 
     With the LU's matrix-wide pivot test (``pivot_row_test=0``, the rule before 2026-11-28), no
     strategy solves it to ``tol`` at any depth; its best attempt balances momentum to 2e-7 of
-    the impact. With the rule off (0) the step fails, as before 2026-11-27.
+    the impact. With the rule off (0) the step fails, as before 2026-11-27. The failed step's
+    rescue pass is off too (``rescue_iter=0``): it would keep its own best attempt as failed.
     """
-    P0 = {"pivot_row_test": 0}
+    P0 = {"pivot_row_test": 0, "rescue_iter": 0}
     (status, failed, _), row, end, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions(**P0))
     assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 1
     assert row[L.R_IMPULSE] == 1  # counted apart: kept by the impulse rule, not by accept_tol

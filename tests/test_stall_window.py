@@ -15,9 +15,8 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tests.tooling import load_tool
+from tests.tooling import load_tool, one_step
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
 from tumblemc.model.run import prepare, run_inputs
 
 DATA = Path(__file__).parent / "data" / "stall_step.npz"
@@ -26,16 +25,10 @@ RUN = load_tool("stall_step").RUN
 
 def _step(window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Record row, end state and last solution of the saved step with ``stall_window = window``."""
-    d = np.load(DATA)
-    solver = tumblemc.SolverOptions(stall_window=window)
-    spec = prepare(run_inputs(**RUN, solver=solver))
-    buf = make_buffers(d["z"].shape[0])
-    buf.z[:] = d["z"]
-    start = Start(d["state"].copy(), float(d["t"]), float(d["area"]), bool(d["mode"] > 0))
-    rec = empty_record(1, 1)
-    status, failed, _ = run(Model(spec.prm, spec.geo), solver.as_array(), start, Clock(spec.h, 1, 1), rec, buf)
+    spec = prepare(run_inputs(**RUN, solver=tumblemc.SolverOptions(stall_window=window)))
+    (status, failed, _), row, start, buf = one_step(np.load(DATA), spec)
     assert status == L.ST_OK and failed == 0
-    return rec[1], start.state, buf.z.copy()
+    return row, start.state, buf.z.copy()
 
 
 def test_stall_window_cuts_the_work_of_a_stalled_step_and_keeps_its_answer() -> None:

@@ -1,11 +1,13 @@
-"""Load a script of ``tools/`` as a module, for the tests of the tools' small versions."""
+"""Helpers of the tests: a script of ``tools/`` loaded as a module, one kernel step from a saved start."""
 
 from __future__ import annotations
 
 import importlib.util
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
@@ -18,3 +20,23 @@ def load_tool(name: str) -> ModuleType:
     sys.modules[spec.name] = mod
     spec.loader.exec_module(mod)
     return mod
+
+
+def one_step(saved: Mapping[str, Any], spec: Any, prefix: str = "", opts: Any = None, h: float | None = None) -> tuple[Any, Any, Any, Any]:
+    """One kernel step from a saved start (``tools/fast_landings.before_step``'s keys, each with ``prefix``).
+
+    ``spec`` is a prepared run (``tumblemc.model.run.prepare``); ``opts`` its solver options
+    array (default ``spec.solver.as_array()``) and ``h`` the step (default ``spec.h``).
+    Returns ``((status, failed, t_decided), record row, Start after the step, buffers)``.
+    """
+    from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
+
+    z = saved[f"{prefix}z"]
+    buf = make_buffers(z.shape[0])
+    buf.z[:] = z
+    area, mode = float(saved[f"{prefix}area"]), float(saved[f"{prefix}mode"])
+    start = Start(saved[f"{prefix}state"].copy(), float(saved[f"{prefix}t"]), area, mode > 0)
+    rec = empty_record(1, 1)
+    o = spec.solver.as_array() if opts is None else opts
+    out = run(Model(spec.prm, spec.geo), o, start, Clock(spec.h if h is None else h, 1, 1), rec, buf)
+    return out, rec[1], start, buf

@@ -115,7 +115,11 @@ O_PIVROW = 15
 # residual's max-norm halved nor the smoothing parameter fell (newton.solve;
 # SolverOptions.stall_window, default 80); 0: only the iteration limit stops it
 O_STALL = 16
-N_OPT = 17
+# a step that fails at every sub-step depth is solved once more from its start, every
+# attempt allowed this many Newton iterations and no stall window (SolverOptions.rescue_iter,
+# default 1000); 0: the step is kept as failed at once
+O_RESCUE = 17
+N_OPT = 18
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

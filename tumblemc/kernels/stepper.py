@@ -39,7 +39,9 @@ from .layout import (
     O_MAXFAIL,
     O_MAXIT,
     O_NWORK,
+    O_RESCUE,
     O_SMOOTH_STALLED,
+    O_STALL,
     O_WARM,
     P_ADHC,
     P_EB,
@@ -1094,6 +1096,19 @@ def _recentre_undo(state, z, xoff, pstart):  # type: ignore[no-untyped-def]
             off += B_FIXED + pstart[kp + 1] - pstart[kp]
 
 
+@jit
+def _keep_start(state, z, touching, led, state_to, z_to, touching_to, led_to):  # type: ignore[no-untyped-def]
+    """Copy a step's start (state, solution guess, touching flags, ledger) into the ``*_to`` arrays."""
+    for i in range(state.shape[0]):
+        state_to[i] = state[i]
+    for i in range(z.shape[0]):
+        z_to[i] = z[i]
+    for i in range(touching.shape[0]):
+        touching_to[i] = touching[i]
+    for i in range(led.shape[0]):
+        led_to[i] = led[i]
+
+
 @jit_alloc
 def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     """Integrate ``n_steps`` steps; returns ``(status, failed_steps, t_decided)``.
@@ -1227,6 +1242,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     # (an attempt that stops progressing for O_STALL iterations is cut: SolverOptions.stall_window)
     opts_smooth = opts.copy()
     opts_smooth[O_MAXIT] = max(opts[O_MAXIT], SMOOTH_MAXIT)
+    # a failed step's rescue pass: every attempt up to O_RESCUE iterations, no stall window
+    opts_rescue = opts.copy()
+    opts_rescue[O_MAXIT] = max(opts[O_MAXIT], SMOOTH_MAXIT, opts[O_RESCUE])
+    opts_rescue[O_STALL] = 0.0
 
     area_prev = area0
     # peeling (P_PEEL): area released by the contact that still adheres, and the work of
@@ -1260,6 +1279,14 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     snap_touch = np.zeros(K, np.int64)
     snap_led = np.zeros(N_LED)
     snap_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub)
+    # the step's start, kept at its first halving (nothing of it is committed yet): a step
+    # that fails at every depth is solved again from there (O_RESCUE)
+    rescue_on = opts[O_RESCUE] > 0.0
+    step_state = np.zeros(state.shape[0])
+    step_z = np.zeros(n)
+    step_touch = np.zeros(K, np.int64)
+    step_led = np.zeros(N_LED)
+    step_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next)
     ref_end = 0.0  # what remains of the step once the refused (sub-)step is refined
     snap_depth = 0  # the depth of the step's first refusal
     wn_coarse = 0.0  # the positive normal work of the refused step
@@ -1291,6 +1318,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
         refine_cap = maxdepth  # landings are halved (O_NWORK) while depth < refine_cap
         refining = False  # the step is being refined: its start is in the snapshot
         restart = False  # return to the snapshot: the refinement failed or did not help
+        step_snap = False  # step_* hold this step's start
+        rescued = False  # the step is being solved again (O_RESCUE)
         while remaining > 1e-12 * h:
             if restart:
                 state[:] = snap_state
@@ -1498,7 +1527,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                 )
                                 off += B_FIXED + mk
                     smooth = STRATEGY_SMOOTH[attempt]
-                    if smooth > 0.0:
+                    if rescued:
+                        opts_use = opts_rescue
+                    elif smooth > 0.0:
                         opts_use = opts_smooth
                     elif depth > 0 or guess >= 8 or guess == 4:
                         opts_use = opts  # the snaps can need more than FAST_MAXIT iterations
@@ -1546,6 +1577,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     refine_cap = max(depth - 1, snap_depth)
                     continue
                 if st != ST_OK and depth < maxdepth:
+                    if rescue_on and not step_snap:
+                        _keep_start(state, zsave, touching, led, step_state, step_z, step_touch, step_led)
+                        step_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next)
+                        step_snap = True
                     for i in range(n):
                         z[i] = zsave[i]
                     hc *= 0.5
@@ -1564,6 +1599,27 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         step_loose = True
                         step_impulse = True
                         unsolved = True
+                if st != ST_OK and rescue_on and not rescued:
+                    # nothing converged at the smallest sub-step: before counting a failure,
+                    # solve the whole step once more from its start with every attempt
+                    # allowed O_RESCUE iterations and no stall window (opts_rescue). Found on
+                    # fast aluminum sliders: a sub-step whose plain Newton converges slowly
+                    # (60 < iterations < 300) and whose smoothing attempts stall. Steps that
+                    # do not fail are untouched (SolverOptions.rescue_iter)
+                    if step_snap:
+                        _keep_start(step_state, step_z, step_touch, step_led, state, zsave, touching, led)
+                        t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next = step_scal
+                    for i in range(n):
+                        z[i] = zsave[i]
+                    rescued = True
+                    refining = False
+                    refine_cap = maxdepth
+                    remaining = h
+                    hc = h
+                    depth = 0
+                    step_loose = False
+                    step_impulse = False
+                    continue
                 if st != ST_OK:
                     # nothing converged at the smallest sub-step: keep the best attempt and
                     # count the step as failed
@@ -1588,6 +1644,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         if not refining:
                             # nothing of the step is committed yet: keep its start, to which a
                             # sub-step that fails returns
+                            if rescue_on and not step_snap and remaining == h:
+                                _keep_start(state, zsave, touching, led, step_state, step_z, step_touch, step_led)
+                                step_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next)
+                                step_snap = True
                             refining = True
                             snap_depth = depth
                             wn_coarse = ls[L_WN]
