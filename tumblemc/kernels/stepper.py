@@ -1289,6 +1289,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     step_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next)
     ref_end = 0.0  # what remains of the step once the refused (sub-)step is refined
     snap_depth = 0  # the depth of the step's first refusal
+    snap_remaining = 0.0  # what remained of the step at the refusal (h unless a sub-step was committed before it)
+    snap_loose = False  # the step's loose flags at the refusal
+    snap_impulse = False
     wn_coarse = 0.0  # the positive normal work of the refused step
     wn_ref = 0.0  # the same, summed over the refinement's sub-steps so far
     lw = np.zeros(N_LW)
@@ -1331,11 +1334,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                 t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub = snap_scal
                 refining = False
                 restart = False
-                remaining = h
+                remaining = snap_remaining
                 hc = h * 0.5**snap_depth
                 depth = snap_depth
-                step_loose = False
-                step_impulse = False
+                step_loose = snap_loose
+                step_impulse = snap_impulse
             if hc > remaining:
                 hc = remaining
             _prepare(state, t, hc, prm, area_prev + peel, any_touch, scr)
@@ -1636,14 +1639,16 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         # the rest of this step would run at the smallest sub-step
                         status = ST_STOPPED
                         break
-                if st == ST_OK and not flight and not free and nwork_max > 0.0 and depth < refine_cap and (refining or remaining == h):
+                if st == ST_OK and not flight and not free and nwork_max > 0.0 and depth < refine_cap:
                     quat_step(state, 3, z, 3, hc, qs, 0)
                     ledger_step(state, z, hc, qs, False, any_touch, area_prev + peel, prm, geo.pstart, sc, lw, ls)
                     have_ls = True
                     if ls[L_WN] > nwork_max:
                         if not refining:
-                            # nothing of the step is committed yet: keep its start, to which a
-                            # sub-step that fails returns
+                            # nothing of this sub-step is committed yet: keep its start, to which
+                            # a refinement that fails or does not help returns (a sub-step after
+                            # an earlier one was committed, too: the landing can come in the
+                            # second half of a halved step)
                             if rescue_on and not step_snap and remaining == h:
                                 _keep_start(state, zsave, touching, led, step_state, step_z, step_touch, step_led)
                                 step_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next)
@@ -1660,6 +1665,9 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                             snap_led[:] = led
                             snap_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub)
                             ref_end = remaining - hc
+                            snap_remaining = remaining
+                            snap_loose = step_loose
+                            snap_impulse = step_impulse
                         for i in range(n):
                             z[i] = zsave[i]
                         hc *= 0.5
