@@ -1606,9 +1606,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     # nothing converged at the smallest sub-step: before counting a failure,
                     # solve the whole step once more from its start with every attempt
                     # allowed O_RESCUE iterations and no stall window (opts_rescue). Found on
-                    # fast aluminum sliders: a sub-step whose plain Newton converges slowly
-                    # (60 < iterations < 300) and whose smoothing attempts stall. Steps that
-                    # do not fail are untouched (SolverOptions.rescue_iter)
+                    # fast aluminum sliders: a sub-step whose plain Newton converges only
+                    # after more than its 60 iterations (up to a few hundred), and smoothing
+                    # attempts the stall window cut. Steps that do not fail are untouched
+                    # (SolverOptions.rescue_iter; docs/solver_gaps.md, section 8)
                     if step_snap:
                         _keep_start(step_state, step_z, step_touch, step_led, state, zsave, touching, led)
                         t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next = step_scal

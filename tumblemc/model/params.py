@@ -323,9 +323,9 @@ class SolverOptions:
         converged sub-step is checked, also one after an earlier sub-step of the same step
         was committed (since 2026-11-28; before, only a step's first sub-step was, and a
         landing in the second half of a step halved for convergence kept its positive
-        work: docs/solver_gaps.md, section 9). The default 1e-5 is a thousandth of the energy tolerance (``ENERGY_GAIN_TOL`` = 1e-2 of
-        a scale at least the step's), so a run keeps a thousand landings at the threshold
-        before the ledger flags it. Allowed: 0 (never: the paper's fixed step) to 1.
+        work: docs/solver_gaps.md, section 9). The default 1e-5 is a thousandth of the
+        energy tolerance (``ENERGY_GAIN_TOL`` = 1e-2 of a scale at least the step's), so a
+        run keeps a thousand landings at the threshold before the ledger flags it. Allowed: 0 (never: the paper's fixed step) to 1.
     impulse_accept_tol : a (sub-)step that no strategy solves even at ``dt / 2**max_substep_depth``
         is kept, as a loose step, instead of failing, if its best attempt balances linear and
         angular momentum to this fraction of the step's momenta and impulses (the force rows'
