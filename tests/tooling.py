@@ -22,11 +22,11 @@ def load_tool(name: str) -> ModuleType:
     return mod
 
 
-def one_step(saved: Mapping[str, Any], spec: Any, prefix: str = "", opts: Any = None, h: float | None = None) -> tuple[Any, Any, Any, Any]:
+def one_step(saved: Mapping[str, Any], spec: Any, prefix: str = "", h: float | None = None) -> tuple[Any, Any, Any, Any]:
     """One kernel step from a saved start (``tools/fast_landings.before_step``'s keys, each with ``prefix``).
 
-    ``spec`` is a prepared run (``tumblemc.model.run.prepare``); ``opts`` its solver options
-    array (default ``spec.solver.as_array()``) and ``h`` the step (default ``spec.h``).
+    ``spec`` is a prepared run (``tumblemc.model.run.prepare``), whose solver options the step
+    uses; ``h`` the step (default ``spec.h``).
     Returns ``((status, failed, t_decided), record row, Start after the step, buffers)``.
     """
     from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
@@ -37,6 +37,5 @@ def one_step(saved: Mapping[str, Any], spec: Any, prefix: str = "", opts: Any = 
     area, mode = float(saved[f"{prefix}area"]), float(saved[f"{prefix}mode"])
     start = Start(saved[f"{prefix}state"].copy(), float(saved[f"{prefix}t"]), area, mode > 0)
     rec = empty_record(1, 1)
-    o = spec.solver.as_array() if opts is None else opts
-    out = run(Model(spec.prm, spec.geo), o, start, Clock(spec.h if h is None else h, 1, 1), rec, buf)
+    out = run(Model(spec.prm, spec.geo), spec.solver.as_array(), start, Clock(spec.h if h is None else h, 1, 1), rec, buf)
     return out, rec[1], start, buf
