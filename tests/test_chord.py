@@ -18,8 +18,8 @@ from tests.test_kernels import make_problem
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import _lm_direction, make_workspace, solve
 from tumblemc.kernels.residual import Problem
-from tumblemc.model.params import SolverOptions
 from tumblemc.model.rows import TimeGrid, simulate_rows
+from tumblemc.model.solver_options import SolverOptions
 
 H = 0.05  # scaled step length of the test problems
 

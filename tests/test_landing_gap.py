@@ -281,7 +281,7 @@ def test_stress_3d_run_39_with_the_quartic_warm_start_has_no_failed_step() -> No
     which no strategy solved at any depth before guess 10 (a failed step, 1e6 Newton
     iterations; a strict xfail until 2026-11-28).
     """
-    from tumblemc.model.params import SolverOptions
+    from tumblemc.model.solver_options import SolverOptions
 
     ds = tumblemc.simulate(shape="cuboid", duration_s=2.0, solver=SolverOptions(warm_order=4), **load_tool("line_landing").run_39())
     assert ds.attrs["failed_steps"] == 0 and ds.attrs["status"] == 0

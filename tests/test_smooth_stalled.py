@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tumblemc.model.params import SolverOptions
+from tumblemc.model.solver_options import SolverOptions
 
 KW = {"shape": "curved", "preset": "aluminum", "incline_deg": 35.0, "duration_s": 0.32, "record_every": 1}
 

@@ -15,7 +15,7 @@ import pytest
 
 import tumblemc
 from tumblemc.kernels.stepper import _best_order
-from tumblemc.model.params import SolverOptions
+from tumblemc.model.solver_options import SolverOptions
 
 
 def extrapolate(zs: list[np.ndarray], p: int) -> np.ndarray:

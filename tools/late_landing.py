@@ -1,4 +1,4 @@
-"""Save the late landing of ``tests/test_late_landing.py`` (``tests/data/late_landing.npz``).
+"""Save the late landings of ``tests/test_late_landing.py`` (``tests/data/late_landing.npz``).
 
 Run 109 of the stress study's violent class (``studies/stress.toml`` restricted to
 aluminum, 70 deg and 0.5 Hz, seed 88001: the spiked robot sliding at 20 m/s), integrated
@@ -8,8 +8,14 @@ positive work, 99.99% of the run's energy gain (``energy_gain_ratio`` 0.044, sta
 ``energy_gain``), because the landing refinement (``SolverOptions.landing_work``) checked
 only a step's first sub-step. docs/solver_gaps.md, section 9.
 
-The state, the warm start and the contact before the step are saved, so the test runs one
-step. Run from the repository root: ``python tools/late_landing.py``.
+Run 386 of the same class (the curved robot sliding at 17 m/s), integrated with the
+default options up to the step before t = 3.83800 s: a landing whose normal impulse does
+2.0e-6 J of positive work at dt, and whose refinement's first half-step does not converge.
+With ``SolverOptions(refine_halvings=0)`` the refinement is refused and the step kept at dt
+with that work; by default the half-step is halved again (docs/solver_gaps.md, section 10).
+
+The state, the warm start and the contact before each step are saved (the second case with
+keys prefixed ``halve_``), so the test runs one step. Run from the repository root: ``python tools/late_landing.py``.
 """
 
 from __future__ import annotations
@@ -37,10 +43,24 @@ RUN = {
     "periods": 2.0,
 }
 STEPS = 69031  # steps taken before the landing
+RUN_HALVE = {
+    "shape": "curved",
+    "preset": "aluminum",
+    "incline_deg": 70.0,
+    "field_mT": 30.731046403282114,
+    "freq_hz": 0.5,
+    "adhesion_C": 52.15060398025141,
+    "mu": 0.5866561928138672,
+    "offset_deg": 9.213948934233612,
+    "periods": 2.0,
+}
+STEPS_HALVE = 76759
 
 
 def main() -> None:
     d = before_step(prepare(run_inputs(**RUN)), STEPS)  # type: ignore[arg-type]
+    halve = before_step(prepare(run_inputs(**RUN_HALVE)), STEPS_HALVE)  # type: ignore[arg-type]
+    d.update({f"halve_{k}": v for k, v in halve.items()})
     np.savez(OUT, allow_pickle=False, **d)
     print(f"wrote {OUT}")
 

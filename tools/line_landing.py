@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from tumblemc.claims import SNAP_HOP
-from tumblemc.model.params import SolverOptions
 from tumblemc.model.run import prepare, run_inputs
+from tumblemc.model.solver_options import SolverOptions
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fast_landings import before_step  # noqa: E402

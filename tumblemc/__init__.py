@@ -16,9 +16,10 @@ from __future__ import annotations
 from tumblemc.io import open_result
 from tumblemc.model import shapes
 from tumblemc.model.outcome import summarize
-from tumblemc.model.params import PRESETS, Params, SolverOptions
+from tumblemc.model.params import PRESETS, Params
 from tumblemc.model.run import simulate
 from tumblemc.model.shapes import SHAPES, Shape, extruded, get_shape
+from tumblemc.model.solver_options import SolverOptions
 from tumblemc.version import __version__
 
 _LAZY = {"load_config": "tumblemc.study.config", "run_study": "tumblemc.study.engine"}

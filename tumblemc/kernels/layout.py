@@ -119,7 +119,11 @@ O_STALL = 16
 # attempt allowed this many Newton iterations and no stall window (SolverOptions.rescue_iter,
 # default 1000); 0: the step is kept as failed at once
 O_RESCUE = 17
-N_OPT = 18
+# a sub-step of a refined landing (O_NWORK) that does not converge is halved again, at most
+# this many times within the refinement, before the step returns to its snapshot
+# (SolverOptions.refine_halvings; 0: it returns at once)
+O_REFINE_HALVE = 18
+N_OPT = 19
 
 # ---- solver status codes -------------------------------------------------------------
 ST_OK = 0

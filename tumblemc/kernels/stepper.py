@@ -39,6 +39,7 @@ from .layout import (
     O_MAXFAIL,
     O_MAXIT,
     O_NWORK,
+    O_REFINE_HALVE,
     O_RESCUE,
     O_SMOOTH_STALLED,
     O_STALL,
@@ -1142,10 +1143,11 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     ``opts[O_IMPULSE]`` (:func:`_impulse_consistent`; the same iterate either way).
     Before any halving, an attempt whose residual is within ``opts[O_ACCEPT]`` is kept
     instead (a loose step; a step counts as loose at most once, and not when it also
-    failed). A converged contact (sub-)step, none of it committed yet, whose normal
-    impulse does more positive work than ``opts[O_NWORK]`` x (``m g`` + the field's work
-    bound over a step) is refined: solved again as halves, while the depth is below
-    ``refine_cap``; if a sub-step of the refinement does not converge, or the sub-steps do
+    failed). A converged contact (sub-)step whose normal impulse does more positive work
+    than ``opts[O_NWORK]`` x (``m g`` + the field's work bound over a step) is refined:
+    solved again as halves, while the depth is below ``refine_cap``. A sub-step of the
+    refinement that does not converge is halved again, at most ``opts[O_REFINE_HALVE]``
+    times within the refinement; if one still does not converge, or the sub-steps do
     more positive normal work than the step they replace, the step starts again from its
     snapshot with a shallower cap (at the depth of the first refusal the check is off, so
     the refused step is solved again and kept). A sub-step kept loose counts as converged
@@ -1294,6 +1296,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     snap_impulse = False
     wn_coarse = 0.0  # the positive normal work of the refused step
     wn_ref = 0.0  # the same, summed over the refinement's sub-steps so far
+    ref_halve_max = int(opts[O_REFINE_HALVE])
+    ref_halved = 0  # halvings of the refinement's sub-steps for want of convergence (O_REFINE_HALVE)
     lw = np.zeros(N_LW)
     led[L_KE] = kinetic_energy(state, prm, lw)
     # early decision (opts[O_DECIDE], kernels/decide.py): the window's start position, the
@@ -1572,12 +1576,26 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                         z[i] = zbest[i]
                     st = ST_OK
                     step_loose = True
+                if st != ST_OK and refining and ref_halved < ref_halve_max and depth < maxdepth:
+                    # a sub-step of a refined landing does not converge: halve it, at most
+                    # O_REFINE_HALVE times within the refinement (the rest of the refined step
+                    # goes on at that length, so the refinement stays bounded: a landing that
+                    # every sub-step depth refused made runs ten times dearer)
+                    for i in range(n):
+                        z[i] = zsave[i]
+                    hc *= 0.5
+                    depth += 1
+                    acc_sub += 1
+                    ref_halved += 1
+                    continue
                 if st != ST_OK and refining:
                     # a sub-step of a refined landing does not converge: start the step again
                     # and refine less deep (at the depth of the first refusal the check is off:
-                    # the converged step that asked for refinement is solved again and kept)
+                    # the converged step that asked for refinement is solved again and kept;
+                    # the depth counted is that of the landing halvings, not of the halvings
+                    # above)
                     restart = True
-                    refine_cap = max(depth - 1, snap_depth)
+                    refine_cap = max(depth - ref_halved - 1, snap_depth)
                     continue
                 if st != ST_OK and depth < maxdepth:
                     if rescue_on and not step_snap:
@@ -1655,6 +1673,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                                 step_scal = (t, area_prev, peel, peel_left, any_touch, ncont, acc_pen, acc_res, acc_sub, order_next)
                                 step_snap = True
                             refining = True
+                            ref_halved = 0
                             snap_depth = depth
                             wn_coarse = ls[L_WN]
                             wn_ref = 0.0

@@ -22,10 +22,10 @@ from tumblemc.kernels.stepper import empty_record, make_buffers
 from tumblemc.model.energy import field_work_bound
 from tumblemc.model.fields import Rotating
 from tumblemc.model.outcome import climbed
-from tumblemc.model.params import SolverOptions
 from tumblemc.model.run import RunSpec, initial_contact, prepare, run_inputs
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
+from tumblemc.model.solver_options import SolverOptions
 from tumblemc.schema import OUTCOMES
 
 

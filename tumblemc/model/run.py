@@ -29,9 +29,10 @@ from tumblemc.model.fields import (
 )
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.outcome import run_status
-from tumblemc.model.params import RANGES, Params, SolverOptions, check_number, get_preset
+from tumblemc.model.params import RANGES, Params, check_number, get_preset
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
+from tumblemc.model.solver_options import SolverOptions
 from tumblemc.model.units import LENGTH_M, Units
 from tumblemc.schema import annotate
 from tumblemc.version import __version__
