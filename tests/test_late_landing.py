@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import tumblemc
 from tests.tooling import load_tool, one_step
@@ -57,3 +58,9 @@ def test_a_refinement_whose_half_step_does_not_converge_is_halved_again() -> Non
     assert refused[L.R_SUB] == 0 and refused[L.R_LED + L.L_GAIN] == coarse[L.R_LED + L.L_GAIN]
     assert halved[L.R_SUB] >= 2  # a half-step halved again
     assert halved[L.R_LED + L.L_GAIN] < 1e-3 * scale
+
+
+@pytest.mark.parametrize("bad", [-1, 31, 1.5, True])
+def test_refine_halvings_out_of_range_names_the_field_and_the_range(bad: object) -> None:
+    with pytest.raises(ValueError, match=r"refine_halvings.*allowed"):
+        tumblemc.SolverOptions(refine_halvings=bad)  # type: ignore[arg-type]
