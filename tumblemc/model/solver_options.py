@@ -32,8 +32,9 @@ class SolverOptions:
         solved again as halves, down to ``dt / 2**max_substep_depth`` (a rigid contact
         cannot push; at a fast landing the robot crosses several thicknesses in one step
         and the end-pose contact throws it back out: docs/solver_gaps.md, section 4). The
-        refinement is kept only if every sub-step converges and the sub-steps together do
-        less positive normal work; otherwise the full step is solved again and kept. Every
+        refinement is kept only if every sub-step converges (one that does not is halved
+        again, at most ``refine_halvings`` times) and the sub-steps together do less
+        positive normal work; otherwise the full step is solved again and kept. Every
         converged sub-step is checked, also one after an earlier sub-step of the same step
         was committed (since 2026-11-28; before, only a step's first sub-step was, and a
         landing in the second half of a step halved for convergence kept its positive
