@@ -137,13 +137,15 @@ def test_loose_steps_keep_a_stalled_residual() -> None:
     quadratic warm start (``warm_order = 2``; with the cubic one the slide takes another
     path, on which the run without accept_tol has no step to halve and keep), and the LU's
     matrix-wide pivot test (``pivot_row_test = 0``; with the row test the slide takes another
-    path without a loose step), and every smoothing attempt run to its limit
-    (``stall_window = 0``). The
+    path without a loose step), every smoothing attempt run to its limit
+    (``stall_window = 0``), and a refined landing's half-step that does not converge not
+    halved again (``refine_halvings = 0``; with the halvings the slide takes another path
+    on which the run without accept_tol keeps no loose step). The
     chord start's solutions differ from those within ``tol``, the
     slide amplifies that, and it goes elsewhere (with ``accept_tol = 0`` it has 4 failed
     steps, with the defaults 0).
     """
-    newton = {"chord_iter": 0, "smooth_stalled": 1, "warm_order": 2, "pivot_row_test": 0, "stall_window": 0}
+    newton = {"chord_iter": 0, "smooth_stalled": 1, "warm_order": 2, "pivot_row_test": 0, "stall_window": 0, "refine_halvings": 0}
     kw = dict(
         shape="curved",
         preset="aluminum",
