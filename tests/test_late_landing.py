@@ -30,8 +30,7 @@ TOOL = load_tool("late_landing")
 
 def _step(landing_work: float, case: str = "", **opts: int) -> tuple[np.ndarray, float]:
     """Record row of a saved step, and the step's energy scale (m g x 1e-4 m + the field's work bound)."""
-    run = TOOL.RUN_HALVE if case == "halve_" else TOOL.RUN
-    spec = prepare(run_inputs(**run, solver=tumblemc.SolverOptions(landing_work=landing_work, **opts)))
+    spec = prepare(run_inputs(**TOOL.CASES[case][0], solver=tumblemc.SolverOptions(landing_work=landing_work, **opts)))
     (status, failed, _), row, _, _ = one_step(np.load(DATA), spec, prefix=case)
     assert status == L.ST_OK and failed == 0
     assert row[L.R_RES] <= spec.solver.tol and row[L.R_LOOSE] == 0

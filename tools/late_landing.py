@@ -55,12 +55,15 @@ RUN_HALVE = {
     "periods": 2.0,
 }
 STEPS_HALVE = 76759
+# each saved case: its keys' prefix -> (the run, steps taken before the landing)
+CASES = {"": (RUN, STEPS), "halve_": (RUN_HALVE, STEPS_HALVE)}
 
 
 def main() -> None:
-    d = before_step(prepare(run_inputs(**RUN)), STEPS)  # type: ignore[arg-type]
-    halve = before_step(prepare(run_inputs(**RUN_HALVE)), STEPS_HALVE)  # type: ignore[arg-type]
-    d.update({f"halve_{k}": v for k, v in halve.items()})
+    d = {}
+    for prefix, (run, steps) in CASES.items():
+        saved = before_step(prepare(run_inputs(**run)), steps)  # type: ignore[arg-type]
+        d.update({f"{prefix}{k}": v for k, v in saved.items()})
     np.savez(OUT, allow_pickle=False, **d)
     print(f"wrote {OUT}")
 
