@@ -864,3 +864,64 @@ def test_jacobian_pattern_survey_runs_small(tmp_path: Path) -> None:
     assert tool.guard_ratio(a, (0, 1)) == 0.0 and tool.guard_ratio(a, (1, 0)) == 1.0
     assert tool.group_guard(a, {}, [0, 1]) == 1.0  # every pivot free: partial pivoting, ratio 1
     assert tool.group_guard(a, {0: 0}, [1]) == 0.0 and tool.group_guard(a, {0: 1}, [0]) == 1.0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lockstep_lu_experiment_solves_bit_for_bit_like_the_sparse_lu(seed: int) -> None:
+    """tools/lockstep_lu.py's lockstep and dense LUs solve like the sparse LU, bit for bit.
+
+    Every lane gets the scalar sparse LU's solution (docs/kernel_experiments.md, "Lockstep
+    LU"), ties and singular lanes included.
+    """
+    tool = load_tool("lockstep_lu")
+    rng = np.random.default_rng(seed)
+    n, K, M = 6 + 3 * seed, 1 + 3 * seed % 8, 4
+    mats = []
+    for _ in range(M * K):
+        A = np.where(rng.random((n, n)) < 0.3, rng.standard_normal((n, n)), 0.0)
+        A[np.arange(n), rng.permutation(n)] += rng.choice([-2.0, -1.0, 1.0, 2.0], n)  # tied pivot candidates
+        mats.append(A)
+    mats[1][:, 0] = 0.0  # a singular lane
+    runs = [mats[r * M : (r + 1) * M] for r in range(K)]
+    c = tool.compare(runs, K, reps=1, rounds=1)
+    assert c["groups"] == M and c["ok_equal"]
+    assert c["bit_lockstep"] == 1.0 and c["bit_dense"] == 1.0
+    Js, _ = tool.groups(runs, K)
+    assert np.array_equal(Js[1, :, :, 0], mats[1])  # lane 0 of group 1 is run 0's second matrix
+
+
+@pytest.mark.slow
+def test_lockstep_lu_experiment_runs_small() -> None:
+    """The small version of tools/lockstep_lu.py: every scenario captured, compared bit for bit, tabled."""
+    text = load_tool("lockstep_lu").main(["--seconds", "0.005", "--runs", "2", "--lanes", "1,4", "--reps", "1", "--rounds", "1"])
+    rows = [line.split("|") for line in text.splitlines() if line.startswith("| ") and "scenario" not in line]
+    assert len(rows) == 6
+    assert all(r[4].strip() == "True" and float(r[5]) == 1.0 and float(r[6]) == 1.0 for r in rows)
+
+
+def test_lockstep_coverage_counts_plain_lanes_and_the_slowest_lane() -> None:
+    """tools/lockstep_coverage.py's coverage and efficiency, on records worked by hand."""
+    tool = load_tool("lockstep_coverage")
+    rec = {
+        "mode": np.array([[1, 1, 1, 0], [1, 1, 2, 2]], float),  # modes at every recorded instant
+        "nit": np.array([[1, 2, 1], [3, 1, 1]], float),  # per step: cost 1 + iterations
+        "sub": np.zeros((2, 3)),
+        "fb": np.zeros((2, 3)),
+    }
+    # step 0: both plain (cost 2 and 4, the group waits for 4); step 1: run 1 changes mode;
+    # step 2: run 0 lifts off, run 1 alone in face contact
+    c, e = tool.coverage(rec, 2)
+    assert (c, e) == pytest.approx((11 / 15, 11 / 13), rel=1e-15)
+    rec["fb"][0, 0] = 1.0  # a fallback takes run 0's first step off the lockstep path
+    assert tool.coverage(rec, 2) == pytest.approx((9 / 15, 1.0), rel=1e-15)
+    assert tool.coverage(rec, 1) == pytest.approx((9 / 15, 1.0), rel=1e-15)  # one lane: nothing to wait for
+    need = tool.s_needed(0.9, 0.7, 2.5)
+    assert tool.bound(0.9, 0.7, need) == pytest.approx(2.5) and tool.s_needed(0.5, 0.7, 2.5) == float("inf")
+
+
+@pytest.mark.slow
+def test_lockstep_coverage_runs_small() -> None:
+    """The small version of tools/lockstep_coverage.py: every cell simulated and tabled."""
+    text = load_tool("lockstep_coverage").main(["--runs", "2", "--lanes", "2", "--duration", "0.05"])
+    rows = [line.split("|") for line in text.splitlines() if line.startswith("| ") and "cell" not in line]
+    assert len(rows) == 4 and all(0.0 < float(r[3]) <= 1.0 and 0.0 < float(r[4]) <= 1.0 for r in rows)

@@ -1,0 +1,606 @@
+"""Does the Newton LU pay in lockstep? Issue 15, item 2, measured on the kernel the issue named.
+
+    python tools/lockstep_lu.py [--seconds 0.1] [--runs 8] [--lanes 1,8,16,32]
+
+Item 2 asks for K runs advanced together in structure-of-arrays form, so that the
+arithmetic of K runs goes through the vector units at once. The issue's own check put the
+gain at about 2.5x per run, with the LU the largest single cost of a step. This script
+measures the LU part on real matrices before anyone rewrites the stepper:
+
+1. **Capture.** For each scenario, ``--runs`` runs (the friction coefficient and the
+   magnetisation offset drawn per run, seed 5) are simulated for ``--seconds`` with the
+   kernels as plain Python, and every Newton matrix is kept
+   (``tools/jacobian_patterns.py``'s capture). Lane ``l`` of a lockstep group takes the
+   ``m``-th matrix of run ``l`` (runs repeat, 37 matrices later, past ``--runs`` lanes),
+   with a random right-hand side (seed 1).
+2. **Scalar path.** Per matrix, what ``newton.solve`` does today: ``copy_amax``, the sparse
+   partial-pivoting ``lu_factor`` and ``lu_solve``.
+3. **Lockstep.** The same three steps on ``K`` matrices stored ``A[i, j, lane]``
+   (:func:`soa_copy_amax`, :func:`soa_lu_factor`, :func:`soa_lu_solve`): each lane's
+   partial pivoting (the same choice, ties included), rows swapped from the pivot column on
+   (LINPACK's ``dgefa``/``dgesl`` form), the elimination over the union of the lanes'
+   nonzero rows and columns, the lane loop innermost (LLVM vectorises it: ``vmulpd`` and
+   ``vsubpd`` on zmm registers on this machine's AVX-512).
+4. **Dense scalar**, for scale: the same elimination on one matrix without the sparse
+   bookkeeping (:func:`dense_lu_factor`).
+5. **A straight-line block of the residual** (``--block``): the end-of-step orientation,
+   its rotation matrix and ``d(theta)/d(w+)`` (``geometry.quat_step`` and
+   ``quat_to_rot``, the residual's first lines) for K lanes, the lane loop outside a
+   straight-line body (:func:`soa_quat_block`), and the same statements each in its own
+   lane loop over a scratch row per local (:func:`per_statement_block`, generated from
+   :func:`soa_quat_block`'s source), against the scalar kernels lane by lane, on random
+   unit quaternions and angular velocities. LLVM vectorises the second form (zmm
+   ``vmulpd``) and not the first (the runtime alias checks between the output's rows).
+
+Every lane's solution is compared bit for bit with the scalar path's (the extra terms of
+the union are exact zeros: ``x - f * 0 == x``), and the times are medians of ``--rounds``
+rounds of ``--reps`` passes over every group, compiled first.
+
+Reported in docs/kernel_experiments.md ("Lockstep LU").
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import inspect
+import math
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numba as nb
+import numpy as np
+
+from tumblemc.kernels.geometry import N_QS, QS_JTH, QS_Q, quat_step, quat_to_rot
+from tumblemc.kernels.newton import PIVOT_REL, copy_amax, lu_factor, lu_solve
+
+HERE = Path(__file__).resolve().parent
+SCENARIOS = {
+    "cuboid, paper, 45 deg": dict(shape="cuboid", preset="paper", incline_deg=45.0),
+    "cuboid, aluminum, 30 deg": dict(shape="cuboid", preset="aluminum", incline_deg=30.0),
+    "curved, paper, 45 deg": dict(shape="curved", preset="paper", incline_deg=45.0),
+}
+MU = {"paper": (0.3, 0.6), "aluminum": (0.8, 1.0)}  # friction drawn per run, as in the studies' ranges
+LANE_SHIFT = 37  # lanes past the runs take a run's matrices this many later
+
+JIT_OPTIONS: dict[str, object] = {
+    "nogil": True,
+    "error_model": "numpy",
+    "_nrt": False,
+}  # the kernels' policy (tumblemc/kernels/_jit.py), uncached
+
+
+def jit(func):
+    """Compile ``func`` as the package compiles its kernels (no reference counting)."""
+    return nb.njit(**JIT_OPTIONS)(func)  # type: ignore[call-overload]
+
+
+def _patterns() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("jacobian_patterns", HERE / "jacobian_patterns.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# ---- lockstep kernels: K matrices stored A[i, j, lane] ---------------------------------
+@jit
+def soa_copy_amax(J, A, amax, n, K):
+    """``A = J`` for every lane; ``amax[l] = max |J[:, :, l]|``."""
+    for lane in range(K):
+        amax[lane] = 0.0
+    for i in range(n):
+        for j in range(n):
+            for lane in range(K):
+                v = J[i, j, lane]
+                A[i, j, lane] = v
+                a = abs(v)
+                amax[lane] = a if a > amax[lane] else amax[lane]
+
+
+@jit
+def soa_lu_factor(A, perm, amax, ok, n, K, lists, work):
+    """Factor the K matrices ``A[:, :, l]`` in place.
+
+    ``ok[l]`` is False where lane ``l``'s pivot falls below ``PIVOT_REL * amax[l]`` (the scalar path's global test; its row-relative
+    retry is not modelled: no captured matrix needs it, which the comparison checks).
+
+    Lane ``l`` swaps rows ``k`` and ``perm[k, l]`` from column ``k`` on (the multipliers
+    stay where they were computed, as in LINPACK's ``dgefa``), so the row lists of column
+    ``k`` (``lists = (rows, nrows, cols, ncols)``: the union over lanes of the rows below
+    the pivot with a nonzero in column ``k``, and of the pivot row's nonzero columns) stay
+    valid for the solve. ``work = (best, pidx, inv, U, f)``: lane scratch.
+    """
+    rows, nrows, cols, ncols = lists
+    best, pidx, inv, U, f = work
+    for lane in range(K):
+        ok[lane] = True
+    for k in range(n):
+        for lane in range(K):
+            best[lane] = abs(A[k, k, lane])
+            pidx[lane] = k
+        for i in range(k + 1, n):
+            for lane in range(K):
+                v = abs(A[i, k, lane])
+                g = v > best[lane]
+                best[lane] = v if g else best[lane]
+                pidx[lane] = i if g else pidx[lane]
+        for lane in range(K):
+            if not best[lane] > PIVOT_REL * amax[lane]:
+                ok[lane] = False
+            p = pidx[lane]
+            perm[k, lane] = p
+            if p != k:
+                for j in range(k, n):
+                    t = A[k, j, lane]
+                    A[k, j, lane] = A[p, j, lane]
+                    A[p, j, lane] = t
+            inv[lane] = 1.0 / A[k, k, lane]
+        nc = 0
+        for j in range(k + 1, n):
+            anz = False
+            for lane in range(K):
+                anz |= A[k, j, lane] != 0.0
+            if anz:
+                cols[k, nc] = j
+                for lane in range(K):
+                    U[nc, lane] = A[k, j, lane]
+                nc += 1
+        ncols[k] = nc
+        nr = 0
+        for i in range(k + 1, n):
+            anz = False
+            for lane in range(K):
+                anz |= A[i, k, lane] != 0.0
+            if not anz:
+                continue
+            rows[k, nr] = i
+            nr += 1
+            for lane in range(K):
+                a = A[i, k, lane]
+                fl = a * inv[lane] if a != 0.0 else a
+                A[i, k, lane] = fl
+                f[lane] = fl
+            for q in range(nc):
+                j = cols[k, q]
+                for lane in range(K):
+                    A[i, j, lane] -= f[lane] * U[q, lane]
+        nrows[k] = nr
+
+
+@jit
+def soa_lu_solve(A, perm, b, n, K, lists, work):
+    """Solve in place with :func:`soa_lu_factor`'s factors.
+
+    ``b[:, l]`` receives lane ``l``'s solution: each lane's swap of step ``k`` just before
+    column ``k`` (``dgesl``), then the substitutions over the union lists.
+    ``work = (bk, acc)``: lane scratch.
+    """
+    rows, nrows, cols, ncols = lists
+    bk, acc = work
+    for k in range(n):
+        for lane in range(K):
+            p = perm[k, lane]
+            t = b[k, lane]
+            b[k, lane] = b[p, lane]
+            b[p, lane] = t
+            bk[lane] = b[k, lane]
+        for q in range(nrows[k]):
+            i = rows[k, q]
+            for lane in range(K):
+                b[i, lane] -= A[i, k, lane] * bk[lane]
+    for i in range(n - 1, -1, -1):
+        for lane in range(K):
+            acc[lane] = b[i, lane]
+        for q in range(ncols[i]):
+            j = cols[i, q]
+            for lane in range(K):
+                acc[lane] -= A[i, j, lane] * b[j, lane]
+        for lane in range(K):
+            b[i, lane] = acc[lane] / A[i, i, lane]
+
+
+# ---- dense scalar LU, for scale --------------------------------------------------------
+@jit
+def dense_lu_factor(J, A, perm, n, prow):
+    """``A = J`` and its dense partial-pivoting LU (``dgefa`` form); False if singular."""
+    amax = 0.0
+    for i in range(n):
+        for j in range(n):
+            v = J[i, j]
+            A[i, j] = v
+            a = abs(v)
+            amax = a if a > amax else amax
+    if not amax > 0.0:
+        return False
+    for k in range(n):
+        p = k
+        best = abs(A[k, k])
+        for i in range(k + 1, n):
+            v = abs(A[i, k])
+            if v > best:
+                best = v
+                p = i
+        if not best > PIVOT_REL * amax:
+            return False
+        perm[k] = p
+        if p != k:
+            for j in range(k, n):
+                t = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = t
+        inv = 1.0 / A[k, k]
+        for j in range(k + 1, n):
+            prow[j] = A[k, j]
+        for i in range(k + 1, n):
+            a = A[i, k]
+            if a != 0.0:
+                fl = a * inv
+                A[i, k] = fl
+                for j in range(k + 1, n):
+                    A[i, j] -= fl * prow[j]
+    return True
+
+
+@jit
+def dense_lu_solve(A, perm, b, n):
+    """Solve in place with :func:`dense_lu_factor`'s factors."""
+    for k in range(n):
+        p = perm[k]
+        bk = b[p]
+        b[p] = b[k]
+        b[k] = bk
+        if bk != 0.0:
+            for i in range(k + 1, n):
+                b[i] -= A[i, k] * bk
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, n):
+            acc -= A[i, j] * b[j]
+        b[i] = acc / A[i, i]
+
+
+# ---- a straight-line block of the residual in lockstep ----------------------------------
+@jit
+def soa_quat_block(q, w, h, out, K):
+    """``quat_step`` and ``quat_to_rot`` for K lanes (``q`` (4, K), ``w`` (3, K)).
+
+    The same arithmetic in the same order: ``out[0:4]`` Q+, ``out[4:13]`` R+,
+    ``out[13:22]`` Jth.
+    """
+    for lane in range(K):
+        a, b, c, d = q[0, lane], q[1, lane], q[2, lane], q[3, lane]
+        w0, w1, w2 = w[0, lane], w[1, lane], w[2, lane]
+        hh = 0.5 * h
+        # E(Q) rows: (-b, -c, -d), (a, d, -c), (-d, a, b), (c, -b, a)
+        n0 = a + hh * -b * w0
+        n0 += hh * -c * w1
+        n0 += hh * -d * w2
+        n1 = b + hh * a * w0
+        n1 += hh * d * w1
+        n1 += hh * -c * w2
+        n2 = c + hh * -d * w0
+        n2 += hh * a * w1
+        n2 += hh * b * w2
+        n3 = d + hh * c * w0
+        n3 += hh * -b * w1
+        n3 += hh * a * w2
+        ss = 0.0
+        ss += n0 * n0
+        ss += n1 * n1
+        ss += n2 * n2
+        ss += n3 * n3
+        nrm = math.sqrt(ss)
+        n0 /= nrm
+        n1 /= nrm
+        n2 /= nrm
+        n3 /= nrm
+        out[0, lane] = n0
+        out[1, lane] = n1
+        out[2, lane] = n2
+        out[3, lane] = n3
+        out[4, lane] = n0 * n0 + n1 * n1 - n2 * n2 - n3 * n3
+        out[5, lane] = 2.0 * (n1 * n2 - n0 * n3)
+        out[6, lane] = 2.0 * (n1 * n3 + n0 * n2)
+        out[7, lane] = 2.0 * (n1 * n2 + n0 * n3)
+        out[8, lane] = n0 * n0 - n1 * n1 + n2 * n2 - n3 * n3
+        out[9, lane] = 2.0 * (n2 * n3 - n0 * n1)
+        out[10, lane] = 2.0 * (n1 * n3 - n0 * n2)
+        out[11, lane] = 2.0 * (n2 * n3 + n0 * n1)
+        out[12, lane] = n0 * n0 - n1 * n1 - n2 * n2 + n3 * n3
+        cc = h / nrm
+        # d(theta)/d(w+) = (h / |Q~|) E(Q+)^T E(Q), summed from 0.0 in k order as quat_step does
+        out[13, lane] = cc * (0.0 + (-n1) * (-b) + (n0) * (a) + (-n3) * (-d) + (n2) * (c))
+        out[14, lane] = cc * (0.0 + (-n1) * (-c) + (n0) * (d) + (-n3) * (a) + (n2) * (-b))
+        out[15, lane] = cc * (0.0 + (-n1) * (-d) + (n0) * (-c) + (-n3) * (b) + (n2) * (a))
+        out[16, lane] = cc * (0.0 + (-n2) * (-b) + (n3) * (a) + (n0) * (-d) + (-n1) * (c))
+        out[17, lane] = cc * (0.0 + (-n2) * (-c) + (n3) * (d) + (n0) * (a) + (-n1) * (-b))
+        out[18, lane] = cc * (0.0 + (-n2) * (-d) + (n3) * (-c) + (n0) * (b) + (-n1) * (a))
+        out[19, lane] = cc * (0.0 + (-n3) * (-b) + (-n2) * (a) + (n1) * (-d) + (n0) * (c))
+        out[20, lane] = cc * (0.0 + (-n3) * (-c) + (-n2) * (d) + (n1) * (a) + (n0) * (-b))
+        out[21, lane] = cc * (0.0 + (-n3) * (-d) + (-n2) * (-c) + (n1) * (b) + (n0) * (a))
+
+
+BLOCK_LOCALS = ("a", "b", "c", "d", "w0", "w1", "w2", "n0", "n1", "n2", "n3", "ss", "nrm", "cc")
+N_BLOCK_LOCALS = len(BLOCK_LOCALS)
+
+
+def per_statement_block() -> Any:
+    """:func:`soa_quat_block` with every statement in its own lane loop.
+
+    Every local is a row of the scratch ``t`` (N_BLOCK_LOCALS, K): ``f(q, w, h, out, t, K)``.
+    """
+    src = inspect.getsource(soa_quat_block.py_func)
+    body = src[src.index("    for lane in range(K):") :].splitlines()[1:]
+    stmts: list[str] = []
+    for line in (ln.strip() for ln in body):
+        if not line or line.startswith("#") or line.startswith("hh ="):
+            continue
+        if line.startswith("a, b, c, d"):
+            stmts += [f"{v} = q[{i}, lane]" for i, v in enumerate("abcd")]
+        elif line.startswith("w0, w1, w2"):
+            stmts += [f"w{i} = w[{i}, lane]" for i in range(3)]
+        else:
+            stmts.append(line)
+    pat = re.compile(r"\b(" + "|".join(BLOCK_LOCALS) + r")\b(?!\s*\[)")
+    lines = ["def per_statement(q, w, h, out, t, K):", "    hh = 0.5 * h"]
+    for st in stmts:
+        lines += ["    for lane in range(K):", "        " + pat.sub(lambda m: f"t[{BLOCK_LOCALS.index(m.group(1))}, lane]", st)]
+    ns: dict[str, Any] = {"math": math}
+    exec("\n".join(lines), ns)  # noqa: S102 - our own source, transformed
+    return jit(ns["per_statement"])
+
+
+PER_STATEMENT = per_statement_block()
+
+
+@nb.njit(nogil=True)
+def block_soa_all(q, w, h, out, reps):
+    """:func:`soa_quat_block` over groups ``q[m]`` (4, K), ``w[m]`` (3, K)."""
+    M, _, K = q.shape
+    for _ in range(reps):
+        for m in range(M):
+            soa_quat_block(q[m], w[m], h, out[m], K)
+
+
+@nb.njit(nogil=True)
+def block_stmt_all(q, w, h, out, reps):
+    """:data:`PER_STATEMENT` over the same groups."""
+    M, _, K = q.shape
+    t = np.zeros((N_BLOCK_LOCALS, K))
+    for _ in range(reps):
+        for m in range(M):
+            PER_STATEMENT(q[m], w[m], h, out[m], t, K)
+
+
+@nb.njit(nogil=True)
+def block_scalar_all(q, w, h, out, reps):
+    """The scalar kernels lane by lane: ``q`` (M, K, 4), ``w`` (M, K, 3), ``out`` (M, K, 22)."""
+    M, K, _ = q.shape
+    o = np.zeros(N_QS)
+    for _ in range(reps):
+        for m in range(M):
+            for lane in range(K):
+                quat_step(q[m, lane], 0, w[m, lane], 0, h, o, 0)
+                r = out[m, lane]
+                for i in range(4):
+                    r[i] = o[QS_Q + i]
+                quat_to_rot(o, QS_Q, r, 4)
+                for i in range(9):
+                    r[13 + i] = o[QS_JTH + i]
+
+
+def compare_block(K: int, M: int = 4096, reps: int = 20, rounds: int = 7, seed: int = 2) -> dict[str, Any]:
+    """Bit-for-bit check and median ns per lane of the residual's orientation block, lockstep and scalar."""
+    rng = np.random.default_rng(seed)
+    q = rng.standard_normal((M, K, 4))
+    q /= np.linalg.norm(q, axis=2, keepdims=True)
+    w = rng.standard_normal((M, K, 3)) * 50.0
+    h = 5e-5
+    qv = np.ascontiguousarray(q.transpose(0, 2, 1))
+    wv = np.ascontiguousarray(w.transpose(0, 2, 1))
+    outs, outv, outp = np.zeros((M, K, 22)), np.zeros((M, 22, K)), np.zeros((M, 22, K))
+    block_scalar_all(q, w, h, outs, 1)
+    block_soa_all(qv, wv, h, outv, 1)
+    block_stmt_all(qv, wv, h, outp, 1)
+    same = bool(np.array_equal(outs, outv.transpose(0, 2, 1)) and np.array_equal(outs, outp.transpose(0, 2, 1)))
+    t: dict[str, list[float]] = {"scalar": [], "lockstep": [], "per_statement": []}
+    for _ in range(rounds):
+        for name, fn, args in (
+            ("scalar", block_scalar_all, (q, w, h, outs)),
+            ("lockstep", block_soa_all, (qv, wv, h, outv)),
+            ("per_statement", block_stmt_all, (qv, wv, h, outp)),
+        ):
+            t0 = time.perf_counter()
+            fn(*args, reps)
+            t[name].append(time.perf_counter() - t0)
+    per = 1e9 / (reps * M * K)
+    return {"K": K, "bit": same, **{k: float(np.median(v)) * per for k, v in t.items()}}
+
+
+# ---- the three paths over every group ----------------------------------------------------
+@nb.njit(nogil=True)
+def scalar_all(Jl, bs, X, okv, reps):
+    """Today's path, matrix by matrix: ``Jl[m, l]`` (n, n), solutions into ``X[m, l]``."""
+    M, K, n, _ = Jl.shape
+    A = np.zeros((n, n))
+    order = np.zeros(n, np.int64)
+    unz = np.zeros((n, n), np.int64)
+    ucnt = np.zeros(n, np.int64)
+    lnz = np.zeros((n, n), np.int64)
+    lcnt = np.zeros(n, np.int64)
+    y = np.zeros(n)
+    for _ in range(reps):
+        for m in range(M):
+            for lane in range(K):
+                J = Jl[m, lane]
+                b = X[m, lane]
+                for i in range(n):
+                    b[i] = bs[m, lane, i]
+                amax = copy_amax(J, A, n)
+                ok = lu_factor(A, order, n, unz, ucnt, lnz, lcnt, amax, J, False)
+                okv[m, lane] = ok
+                if ok:
+                    lu_solve(A, order, b, n, unz, ucnt, lnz, lcnt, y)
+
+
+@nb.njit(nogil=True)
+def dense_all(Jl, bs, X, okv, reps):
+    """The dense scalar LU, matrix by matrix (same layout as :func:`scalar_all`)."""
+    M, K, n, _ = Jl.shape
+    A = np.zeros((n, n))
+    perm = np.zeros(n, np.int64)
+    prow = np.zeros(n)
+    for _ in range(reps):
+        for m in range(M):
+            for lane in range(K):
+                b = X[m, lane]
+                for i in range(n):
+                    b[i] = bs[m, lane, i]
+                ok = dense_lu_factor(Jl[m, lane], A, perm, n, prow)
+                okv[m, lane] = ok
+                if ok:
+                    dense_lu_solve(A, perm, b, n)
+
+
+@nb.njit(nogil=True)
+def soa_all(Js, bsv, X, okv, reps):
+    """Lockstep: group ``m`` is ``Js[m]`` (n, n, K), solutions into ``X[m]`` (n, K)."""
+    M, n, _, K = Js.shape
+    A = np.zeros((n, n, K))
+    amax = np.zeros(K)
+    perm = np.zeros((n, K), np.int64)
+    ok = np.zeros(K, np.bool_)
+    lists = (np.zeros((n, n), np.int64), np.zeros(n, np.int64), np.zeros((n, n), np.int64), np.zeros(n, np.int64))
+    fwork = (np.zeros(K), np.zeros(K, np.int64), np.zeros(K), np.zeros((n, K)), np.zeros(K))
+    swork = (np.zeros(K), np.zeros(K))
+    for _ in range(reps):
+        for m in range(M):
+            b = X[m]
+            for i in range(n):
+                for lane in range(K):
+                    b[i, lane] = bsv[m, i, lane]
+            soa_copy_amax(Js[m], A, amax, n, K)
+            soa_lu_factor(A, perm, amax, ok, n, K, lists, fwork)
+            soa_lu_solve(A, perm, b, n, K, lists, swork)
+            for lane in range(K):
+                okv[m, lane] = ok[lane]
+
+
+def groups(runs: list[list[np.ndarray]], K: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Lockstep groups of K lanes from the captured runs: ``(M, n, n, K)`` matrices and ``(M, n, K)`` right-hand sides."""
+    R = len(runs)
+    lanes = [runs[lane % R][(lane // R) * LANE_SHIFT :] for lane in range(K)]
+    M = min(len(r) for r in lanes)
+    n = lanes[0][0].shape[0]
+    Js = np.zeros((M, n, n, K))
+    for lane, r in enumerate(lanes):
+        for m in range(M):
+            Js[m, :, :, lane] = r[m]
+    return Js, np.random.default_rng(seed).standard_normal((M, n, K))
+
+
+def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dict[str, Any]:
+    """Bit-for-bit check and median times (ns per matrix) of the three paths on K-lane groups."""
+    Js, bsv = groups(runs, K)
+    M, n = Js.shape[0], Js.shape[1]
+    Jl = np.ascontiguousarray(Js.transpose(0, 3, 1, 2))
+    bs = np.ascontiguousarray(bsv.transpose(0, 2, 1))
+    Xs, Xd, Xv = np.zeros((M, K, n)), np.zeros((M, K, n)), np.zeros((M, n, K))
+    oks, okd, okv = (np.zeros((M, K), np.bool_) for _ in range(3))
+    scalar_all(Jl, bs, Xs, oks, 1)
+    dense_all(Jl, bs, Xd, okd, 1)
+    soa_all(Js, bsv, Xv, okv, 1)
+    both = oks & okv
+    same = [np.array_equal(Xs[m, lane], Xv[m, :, lane]) for m in range(M) for lane in range(K) if both[m, lane]]
+    same_d = [np.array_equal(Xs[m, lane], Xd[m, lane]) for m in range(M) for lane in range(K) if oks[m, lane] and okd[m, lane]]
+    t: dict[str, list[float]] = {"scalar": [], "dense": [], "lockstep": []}
+    for _ in range(rounds):
+        for name, fn, args in (
+            ("scalar", scalar_all, (Jl, bs, Xs, oks)),
+            ("dense", dense_all, (Jl, bs, Xd, okd)),
+            ("lockstep", soa_all, (Js, bsv, Xv, okv)),
+        ):
+            t0 = time.perf_counter()
+            fn(*args, reps)
+            t[name].append(time.perf_counter() - t0)
+    ns = {k: float(np.median(v)) / (reps * M * K) * 1e9 for k, v in t.items()}
+    return {
+        "K": K,
+        "groups": M,
+        "ok_equal": bool((oks == okv).all() and (oks == okd).all()),
+        "bit_lockstep": float(np.mean(same)) if same else float("nan"),
+        "bit_dense": float(np.mean(same_d)) if same_d else float("nan"),
+        **ns,
+    }
+
+
+def capture_runs(kw: dict[str, Any], runs: int, seconds: float, tmp: Path) -> list[list[np.ndarray]]:
+    """Newton matrices of ``runs`` runs of one scenario (friction and offset drawn per run, seed 5)."""
+    cap = _patterns().capture
+    rng = np.random.default_rng(5)
+    lo, hi = MU[str(kw["preset"])]
+    out = []
+    for r in range(runs):
+        one = {**kw, "duration_s": seconds, "mu": float(rng.uniform(lo, hi)), "offset_deg": float(rng.uniform(-10.0, 10.0))}
+        out.append([v for v, _, _ in cap(one, tmp / f"{r}.pkl")])
+    n = max(v.shape[0] for r in out for v in r)
+    return [[v for v in r if v.shape[0] == n] for r in out]
+
+
+def main(argv: list[str] | None = None) -> str:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=0.1, help="simulated time per run (default 0.1)")
+    ap.add_argument("--runs", type=int, default=8, help="runs per scenario (default 8)")
+    ap.add_argument("--lanes", default="1,8,16,32", help="lockstep widths K (default 1,8,16,32)")
+    ap.add_argument("--reps", type=int, default=3, help="passes over every group per round (default 3)")
+    ap.add_argument("--rounds", type=int, default=7, help="timed rounds; medians reported (default 7)")
+    ap.add_argument("--block", action="store_true", help="also the residual's orientation block in lockstep")
+    args = ap.parse_args(argv)
+    lanes = [int(k) for k in args.lanes.split(",")]
+    if args.block:
+        blines = [
+            "",
+            "The residual's orientation block (`--block`; ns per lane):",
+            "",
+            "| K | bit-identical (both forms) | scalar kernels | lockstep, lane loop outside "
+            "| per-statement lane loops | scalar / best lockstep |",
+            "|---|---|---|---|---|---|",
+        ]
+        for K in lanes:
+            b = compare_block(K, rounds=args.rounds)
+            best = min(b["lockstep"], b["per_statement"])
+            blines.append(
+                f"| {K} | {b['bit']} | {b['scalar']:.1f} | {b['lockstep']:.1f} | {b['per_statement']:.1f} | {b['scalar'] / best:.2f}x |"
+            )
+    lines = [
+        f"`python tools/lockstep_lu.py --seconds {args.seconds:g} --runs {args.runs} --lanes {args.lanes}` "
+        f"(medians of {args.rounds} rounds; ns per matrix: copy, factor and solve):",
+        "",
+        "| scenario | K | groups | ok flags equal | lockstep bit-identical | dense bit-identical "
+        "| scalar sparse (today) | dense scalar | lockstep | today / lockstep |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, kw in SCENARIOS.items():
+            print(f"capturing {name} ...", file=sys.stderr, flush=True)
+            runs = capture_runs(kw, args.runs, args.seconds, Path(tmp))
+            for K in lanes:
+                c = compare(runs, K, args.reps, args.rounds)
+                lines.append(
+                    f"| {name} | {K} | {c['groups']:,} | {c['ok_equal']} | {c['bit_lockstep']:.4f} | {c['bit_dense']:.4f} "
+                    f"| {c['scalar']:.0f} | {c['dense']:.0f} | {c['lockstep']:.0f} | {c['scalar'] / c['lockstep']:.2f}x |"
+                )
+    text = "\n".join(lines + (blines if args.block else []))
+    print(text)
+    return text
+
+
+if __name__ == "__main__":
+    main()
