@@ -24,8 +24,10 @@ end). Lane ``l`` of group ``g`` is run ``g K + l``. At each step of a group:
 Then a lockstep whose kernels make a plain lane's step ``s`` times cheaper (all lanes
 busy) gives at most ``1 / ((1 - c) + c / (s e))`` per run. The table prints the
 break-even ``s = 1 / e`` (below it lockstep is slower than the scalar path), the ``s``
-that the issue's 2.5x per run would need, and the ceiling ``1 / (1 - c)`` of an
-infinitely fast lockstep.
+that the issue's 2.5x per run would need, the bound at ``s = 4`` (what straight-line
+kernel code gained in lockstep at K = 8, ``tools/lockstep_lu.py --block``), the bound of
+perfect K-wide vectors with no lane ever idle (``s = K``, ``e = 1``), and the ceiling
+``1 / (1 - c)`` of an infinitely fast lockstep.
 
 Reported in docs/kernel_experiments.md ("Lockstep LU").
 """
@@ -123,8 +125,9 @@ def main(argv: list[str] | None = None) -> str:
     lines = [
         f"`python tools/lockstep_coverage.py --runs {args.runs} --lanes {args.lanes}{extra}`:",
         "",
-        "| cell | K | coverage c | efficiency e | break-even s = 1/e | s for 2.5x per run | ceiling 1/(1-c) |",
-        "|---|---|---|---|---|---|---|",
+        "| cell | K | coverage c | efficiency e | break-even s = 1/e | s for 2.5x per run | bound at s = 4 "
+        "| s = K, e = 1 | ceiling 1/(1-c) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for shape, substrate, incline in CELLS:
         print(f"simulating {shape}, {substrate}, {incline:g} deg ...", file=sys.stderr, flush=True)
@@ -134,7 +137,8 @@ def main(argv: list[str] | None = None) -> str:
             need = s_needed(c, e, 2.5)
             lines.append(
                 f"| {shape}, {substrate}, {incline:g} deg | {K} | {c:.3f} | {e:.3f} | {1.0 / e:.2f} "
-                f"| {need:.2f} | {1.0 / (1.0 - c):.2f}x |".replace("| inf |", "| out of reach |")
+                f"| {need:.2f} | {bound(c, e, 4.0):.2f}x | {bound(c, 1.0, float(K)):.2f}x "
+                f"| {1.0 / (1.0 - c):.2f}x |".replace("| inf |", "| out of reach |")
             )
     text = "\n".join(lines)
     print(text)

@@ -21,6 +21,8 @@ measures the LU part on real matrices before anyone rewrites the stepper:
    (LINPACK's ``dgefa``/``dgesl`` form), the elimination over the union of the lanes'
    nonzero rows and columns, the lane loop innermost (LLVM vectorises it: ``vmulpd`` and
    ``vsubpd`` on zmm registers on this machine's AVX-512).
+   The same on one flat array per group with ``n`` and ``K`` compile-time constants
+   (:func:`flat_lu`), the layout in which LLVM vectorises straight-line code (item 5).
 4. **Dense scalar**, for scale: the same elimination on one matrix without the sparse
    bookkeeping (:func:`dense_lu_factor`).
 5. **A straight-line block of the residual** (``--block``): the end-of-step orientation,
@@ -29,8 +31,11 @@ measures the LU part on real matrices before anyone rewrites the stepper:
    straight-line body (:func:`soa_quat_block`), and the same statements each in its own
    lane loop over a scratch row per local (:func:`per_statement_block`, generated from
    :func:`soa_quat_block`'s source), against the scalar kernels lane by lane, on random
-   unit quaternions and angular velocities. LLVM vectorises the second form (zmm
-   ``vmulpd``) and not the first (the runtime alias checks between the output's rows).
+   unit quaternions and angular velocities; and the lane-outside form on one flat array
+   with ``K`` a compile-time constant (:func:`flat_block`). LLVM vectorises the second
+   form only past K = 16 (the per-loop overhead), does not vectorise the first (runtime
+   alias checks between the rows of different arrays), and fully vectorises the third
+   (zmm ``vmulpd``: every address is one base plus a constant).
 
 Every lane's solution is compared bit for bit with the scalar path's (the extra terms of
 the union are exact zeros: ``x - f * 0 == x``), and the times are medians of ``--rounds``
@@ -360,6 +365,38 @@ def per_statement_block() -> Any:
 PER_STATEMENT = per_statement_block()
 
 
+def flat_block(K: int) -> Any:
+    """:func:`soa_quat_block` on one flat array with ``K`` a compile-time constant.
+
+    ``s[r * K + lane]``: rows 0-3 ``q``, 4-6 ``w``, 7-28 the output. Every address is the
+    same base plus a constant, so LLVM can prove that the rows do not overlap and
+    vectorises the lane loop (zmm ``vmulpd`` on this machine). Returns ``f(s, h)``.
+    """
+    src = inspect.getsource(soa_quat_block.py_func)
+    body = src[src.index("    for lane in range(K):") :].splitlines()[1:]
+    lines = ["def flat(s, h):", "    hh = 0.5 * h", "    for lane in range(KK):"]
+    for line in (ln.strip() for ln in body):
+        if not line or line.startswith("#") or line.startswith("hh ="):
+            continue
+        if line.startswith("a, b, c, d"):
+            lines += [f"        {v} = s[{i} * KK + lane]" for i, v in enumerate("abcd")]
+        elif line.startswith("w0, w1, w2"):
+            lines += [f"        w{i} = s[{4 + i} * KK + lane]" for i in range(3)]
+        else:
+            lines.append("        " + re.sub(r"out\[(\d+), lane\]", lambda m: f"s[{7 + int(m.group(1))} * KK + lane]", line))
+    ns: dict[str, Any] = {"math": math, "KK": K}
+    exec("\n".join(lines), ns)  # noqa: S102 - our own source, transformed
+    f = jit(ns["flat"])
+
+    @nb.njit(nogil=True)
+    def rep(S, h, reps):
+        for _ in range(reps):
+            for m in range(S.shape[0]):
+                f(S[m], h)
+
+    return rep
+
+
 @nb.njit(nogil=True)
 def block_soa_all(q, w, h, out, reps):
     """:func:`soa_quat_block` over groups ``q[m]`` (4, K), ``w[m]`` (3, K)."""
@@ -406,25 +443,33 @@ def compare_block(K: int, M: int = 4096, reps: int = 20, rounds: int = 7, seed: 
     qv = np.ascontiguousarray(q.transpose(0, 2, 1))
     wv = np.ascontiguousarray(w.transpose(0, 2, 1))
     outs, outv, outp = np.zeros((M, K, 22)), np.zeros((M, 22, K)), np.zeros((M, 22, K))
+    S3 = np.zeros((M, 29, K))
+    S3[:, 0:4] = qv
+    S3[:, 4:7] = wv
+    S = S3.reshape(M, 29 * K)
+    flat = flat_block(K)
     block_scalar_all(q, w, h, outs, 1)
     block_soa_all(qv, wv, h, outv, 1)
     block_stmt_all(qv, wv, h, outp, 1)
-    same = bool(np.array_equal(outs, outv.transpose(0, 2, 1)) and np.array_equal(outs, outp.transpose(0, 2, 1)))
-    t: dict[str, list[float]] = {"scalar": [], "lockstep": [], "per_statement": []}
+    flat(S, h, 1)
+    outf = S.reshape(M, 29, K)[:, 7:]
+    same = all(np.array_equal(outs, o.transpose(0, 2, 1)) for o in (outv, outp, outf))
+    t: dict[str, list[float]] = {"scalar": [], "lockstep": [], "per_statement": [], "flat": []}
     for _ in range(rounds):
         for name, fn, args in (
             ("scalar", block_scalar_all, (q, w, h, outs)),
             ("lockstep", block_soa_all, (qv, wv, h, outv)),
             ("per_statement", block_stmt_all, (qv, wv, h, outp)),
+            ("flat", flat, (S, h)),
         ):
             t0 = time.perf_counter()
-            fn(*args, reps)
+            fn(*args, reps)  # type: ignore[call-arg]
             t[name].append(time.perf_counter() - t0)
     per = 1e9 / (reps * M * K)
     return {"K": K, "bit": same, **{k: float(np.median(v)) * per for k, v in t.items()}}
 
 
-# ---- the three paths over every group ----------------------------------------------------
+# ---- the paths over every group ----------------------------------------------------
 @nb.njit(nogil=True)
 def scalar_all(Jl, bs, X, okv, reps):
     """Today's path, matrix by matrix: ``Jl[m, l]`` (n, n), solutions into ``X[m, l]``."""
@@ -493,6 +538,125 @@ def soa_all(Js, bsv, X, okv, reps):
                 okv[m, lane] = ok[lane]
 
 
+def flat_lu(n: int, K: int) -> Any:
+    """The lockstep LU on one flat array per group, ``A[(i * n + j) * K + lane]``.
+
+    ``n`` and ``K`` are compile-time constants (the layout that lets LLVM vectorise
+    :func:`flat_block`); the same algorithm and arithmetic as :func:`soa_lu_factor` and
+    :func:`soa_lu_solve`, lane scratch in one flat array. Returns ``run_all(Jf, bf, X, okv,
+    reps)`` over groups ``Jf[m]`` (n n K) and right-hand sides ``bf[m]`` (n K).
+    """
+    NN = n * n * K
+
+    @jit
+    def flat_copy_amax(J, A, w):
+        # w: lane scratch (flat float): w[0:K] amax
+        for lane in range(K):
+            w[lane] = 0.0
+        for idx in range(n * n):
+            for lane in range(K):
+                v = J[idx * K + lane]
+                A[idx * K + lane] = v
+                a = abs(v)
+                w[lane] = a if a > w[lane] else w[lane]
+
+    @jit
+    def flat_factor(A, w, perm, lists):
+        # w: [0:K] amax, [K:2K] best, [2K:3K] pidx (float), [3K:4K] inv, [4K:5K] ok, [5K:6K] f, [6K:6K+nK] U
+        rows, nrows, cols, ncols = lists
+        for lane in range(K):
+            w[4 * K + lane] = 1.0
+        for k in range(n):
+            for lane in range(K):
+                w[K + lane] = abs(A[(k * n + k) * K + lane])
+                w[2 * K + lane] = k
+            for i in range(k + 1, n):
+                for lane in range(K):
+                    v = abs(A[(i * n + k) * K + lane])
+                    g = v > w[K + lane]
+                    w[K + lane] = v if g else w[K + lane]
+                    w[2 * K + lane] = i if g else w[2 * K + lane]
+            for lane in range(K):
+                if not w[K + lane] > PIVOT_REL * w[lane]:
+                    w[4 * K + lane] = 0.0
+                p = int(w[2 * K + lane])
+                perm[k * K + lane] = p
+                if p != k:
+                    for j in range(k, n):
+                        t = A[(k * n + j) * K + lane]
+                        A[(k * n + j) * K + lane] = A[(p * n + j) * K + lane]
+                        A[(p * n + j) * K + lane] = t
+            for lane in range(K):
+                w[3 * K + lane] = 1.0 / A[(k * n + k) * K + lane]
+            nc = 0
+            for j in range(k + 1, n):
+                anz = False
+                for lane in range(K):
+                    anz |= A[(k * n + j) * K + lane] != 0.0
+                if anz:
+                    cols[k * n + nc] = j
+                    nc += 1
+            ncols[k] = nc
+            nr = 0
+            for i in range(k + 1, n):
+                anz = False
+                for lane in range(K):
+                    anz |= A[(i * n + k) * K + lane] != 0.0
+                if not anz:
+                    continue
+                rows[k * n + nr] = i
+                nr += 1
+                for lane in range(K):
+                    a = A[(i * n + k) * K + lane]
+                    A[(i * n + k) * K + lane] = a * w[3 * K + lane] if a != 0.0 else a
+                for q in range(nc):
+                    j = cols[k * n + q]
+                    for lane in range(K):
+                        A[(i * n + j) * K + lane] -= A[(i * n + k) * K + lane] * A[(k * n + j) * K + lane]
+            nrows[k] = nr
+
+    @jit
+    def flat_solve(A, perm, b, lists):
+        rows, nrows, cols, ncols = lists
+        for k in range(n):
+            for lane in range(K):
+                p = perm[k * K + lane]
+                t = b[k * K + lane]
+                b[k * K + lane] = b[p * K + lane]
+                b[p * K + lane] = t
+            for q in range(nrows[k]):
+                i = rows[k * n + q]
+                for lane in range(K):
+                    b[i * K + lane] -= A[(i * n + k) * K + lane] * b[k * K + lane]
+        for i in range(n - 1, -1, -1):
+            for q in range(ncols[i]):
+                j = cols[i * n + q]
+                for lane in range(K):
+                    b[i * K + lane] -= A[(i * n + j) * K + lane] * b[j * K + lane]
+            for lane in range(K):
+                b[i * K + lane] = b[i * K + lane] / A[(i * n + i) * K + lane]
+
+    @nb.njit(nogil=True)
+    def run_all(Jf, bsv, X, okv, reps):
+        M = Jf.shape[0]
+        A = np.zeros(NN)
+        w = np.zeros(6 * K + n * K)
+        perm = np.zeros(n * K, np.int64)
+        lists = (np.zeros(n * n, np.int64), np.zeros(n, np.int64), np.zeros(n * n, np.int64), np.zeros(n, np.int64))
+        for _ in range(reps):
+            for m in range(M):
+                b = X[m]
+                for i in range(n * K):
+                    b[i] = bsv[m, i]
+                flat_copy_amax(Jf[m], A, w)
+                flat_factor(A, w, perm, lists)
+                flat_solve(A, perm, b, lists)
+                for lane in range(K):
+                    okv[m, lane] = w[4 * K + lane] > 0.5
+
+    return run_all
+
+
 def groups(runs: list[list[np.ndarray]], K: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Lockstep groups of K lanes from the captured runs: ``(M, n, n, K)`` matrices and ``(M, n, K)`` right-hand sides."""
     R = len(runs)
@@ -507,34 +671,47 @@ def groups(runs: list[list[np.ndarray]], K: int, seed: int = 1) -> tuple[np.ndar
 
 
 def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dict[str, Any]:
-    """Bit-for-bit check and median times (ns per matrix) of the three paths on K-lane groups."""
+    """Bit-for-bit check and median times (ns per matrix) of the four paths on K-lane groups."""
     Js, bsv = groups(runs, K)
     M, n = Js.shape[0], Js.shape[1]
     Jl = np.ascontiguousarray(Js.transpose(0, 3, 1, 2))
     bs = np.ascontiguousarray(bsv.transpose(0, 2, 1))
     Xs, Xd, Xv = np.zeros((M, K, n)), np.zeros((M, K, n)), np.zeros((M, n, K))
     oks, okd, okv = (np.zeros((M, K), np.bool_) for _ in range(3))
+    Jf = np.ascontiguousarray(Js.reshape(M, n * n * K))
+    bf = np.ascontiguousarray(bsv.reshape(M, n * K))
+    Xf = np.zeros((M, n * K))
+    okf = np.zeros((M, K), np.bool_)
+    flat = flat_lu(n, K)
     scalar_all(Jl, bs, Xs, oks, 1)
     dense_all(Jl, bs, Xd, okd, 1)
     soa_all(Js, bsv, Xv, okv, 1)
+    flat(Jf, bf, Xf, okf, 1)
+    Xf3 = Xf.reshape(M, n, K)
     both = oks & okv
-    same = [np.array_equal(Xs[m, lane], Xv[m, :, lane]) for m in range(M) for lane in range(K) if both[m, lane]]
+    same = [
+        np.array_equal(Xs[m, lane], Xv[m, :, lane]) and np.array_equal(Xs[m, lane], Xf3[m, :, lane])
+        for m in range(M)
+        for lane in range(K)
+        if both[m, lane]
+    ]
     same_d = [np.array_equal(Xs[m, lane], Xd[m, lane]) for m in range(M) for lane in range(K) if oks[m, lane] and okd[m, lane]]
-    t: dict[str, list[float]] = {"scalar": [], "dense": [], "lockstep": []}
+    t: dict[str, list[float]] = {"scalar": [], "dense": [], "lockstep": [], "flat": []}
     for _ in range(rounds):
         for name, fn, args in (
             ("scalar", scalar_all, (Jl, bs, Xs, oks)),
             ("dense", dense_all, (Jl, bs, Xd, okd)),
             ("lockstep", soa_all, (Js, bsv, Xv, okv)),
+            ("flat", flat, (Jf, bf, Xf, okf)),
         ):
             t0 = time.perf_counter()
-            fn(*args, reps)
+            fn(*args, reps)  # type: ignore[call-arg]
             t[name].append(time.perf_counter() - t0)
     ns = {k: float(np.median(v)) / (reps * M * K) * 1e9 for k, v in t.items()}
     return {
         "K": K,
         "groups": M,
-        "ok_equal": bool((oks == okv).all() and (oks == okd).all()),
+        "ok_equal": bool((oks == okv).all() and (oks == okd).all() and (oks == okf).all()),
         "bit_lockstep": float(np.mean(same)) if same else float("nan"),
         "bit_dense": float(np.mean(same_d)) if same_d else float("nan"),
         **ns,
@@ -569,23 +746,23 @@ def main(argv: list[str] | None = None) -> str:
             "",
             "The residual's orientation block (`--block`; ns per lane):",
             "",
-            "| K | bit-identical (both forms) | scalar kernels | lockstep, lane loop outside "
-            "| per-statement lane loops | scalar / best lockstep |",
-            "|---|---|---|---|---|---|",
+            "| K | bit-identical (all forms) | scalar kernels | lockstep, lane loop outside "
+            "| per-statement lane loops | flat, K constant | scalar / flat |",
+            "|---|---|---|---|---|---|---|",
         ]
         for K in lanes:
             b = compare_block(K, rounds=args.rounds)
-            best = min(b["lockstep"], b["per_statement"])
             blines.append(
-                f"| {K} | {b['bit']} | {b['scalar']:.1f} | {b['lockstep']:.1f} | {b['per_statement']:.1f} | {b['scalar'] / best:.2f}x |"
+                f"| {K} | {b['bit']} | {b['scalar']:.1f} | {b['lockstep']:.1f} | {b['per_statement']:.1f} "
+                f"| {b['flat']:.1f} | {b['scalar'] / b['flat']:.2f}x |"
             )
     lines = [
         f"`python tools/lockstep_lu.py --seconds {args.seconds:g} --runs {args.runs} --lanes {args.lanes}` "
         f"(medians of {args.rounds} rounds; ns per matrix: copy, factor and solve):",
         "",
         "| scenario | K | groups | ok flags equal | lockstep bit-identical | dense bit-identical "
-        "| scalar sparse (today) | dense scalar | lockstep | today / lockstep |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| scalar sparse (today) | dense scalar | lockstep | flat lockstep, n and K constant | today / best lockstep |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in SCENARIOS.items():
@@ -595,7 +772,8 @@ def main(argv: list[str] | None = None) -> str:
                 c = compare(runs, K, args.reps, args.rounds)
                 lines.append(
                     f"| {name} | {K} | {c['groups']:,} | {c['ok_equal']} | {c['bit_lockstep']:.4f} | {c['bit_dense']:.4f} "
-                    f"| {c['scalar']:.0f} | {c['dense']:.0f} | {c['lockstep']:.0f} | {c['scalar'] / c['lockstep']:.2f}x |"
+                    f"| {c['scalar']:.0f} | {c['dense']:.0f} | {c['lockstep']:.0f} | {c['flat']:.0f} "
+                    f"| {c['scalar'] / min(c['lockstep'], c['flat']):.2f}x |"
                 )
     text = "\n".join(lines + (blines if args.block else []))
     print(text)
