@@ -336,10 +336,11 @@ BLOCK_LOCALS = ("a", "b", "c", "d", "w0", "w1", "w2", "n0", "n1", "n2", "n3", "s
 N_BLOCK_LOCALS = len(BLOCK_LOCALS)
 
 
-def per_statement_block() -> Any:
-    """:func:`soa_quat_block` with every statement in its own lane loop.
+def _block_statements(load: Any) -> list[str]:
+    """:func:`soa_quat_block`'s statements, one per line.
 
-    Every local is a row of the scratch ``t`` (N_BLOCK_LOCALS, K): ``f(q, w, h, out, t, K)``.
+    Its loads of ``q`` and ``w`` are written by ``load(array_name, row)``: the forms below
+    differ only in their addressing.
     """
     src = inspect.getsource(soa_quat_block.py_func)
     body = src[src.index("    for lane in range(K):") :].splitlines()[1:]
@@ -348,18 +349,31 @@ def per_statement_block() -> Any:
         if not line or line.startswith("#") or line.startswith("hh ="):
             continue
         if line.startswith("a, b, c, d"):
-            stmts += [f"{v} = q[{i}, lane]" for i, v in enumerate("abcd")]
+            stmts += [f"{v} = {load('q', i)}" for i, v in enumerate("abcd")]
         elif line.startswith("w0, w1, w2"):
-            stmts += [f"w{i} = w[{i}, lane]" for i in range(3)]
+            stmts += [f"w{i} = {load('w', i)}" for i in range(3)]
         else:
             stmts.append(line)
+    return stmts
+
+
+def _compile(lines: list[str], name: str, **consts: Any) -> Any:
+    """Compile the generated function ``name`` (:func:`jit`) with ``consts`` as globals."""
+    ns: dict[str, Any] = {"math": math, **consts}
+    exec("\n".join(lines), ns)  # noqa: S102 - our own source, transformed
+    return jit(ns[name])
+
+
+def per_statement_block() -> Any:
+    """:func:`soa_quat_block` with every statement in its own lane loop.
+
+    Every local is a row of the scratch ``t`` (N_BLOCK_LOCALS, K): ``f(q, w, h, out, t, K)``.
+    """
     pat = re.compile(r"\b(" + "|".join(BLOCK_LOCALS) + r")\b(?!\s*\[)")
     lines = ["def per_statement(q, w, h, out, t, K):", "    hh = 0.5 * h"]
-    for st in stmts:
+    for st in _block_statements(lambda a, i: f"{a}[{i}, lane]"):
         lines += ["    for lane in range(K):", "        " + pat.sub(lambda m: f"t[{BLOCK_LOCALS.index(m.group(1))}, lane]", st)]
-    ns: dict[str, Any] = {"math": math}
-    exec("\n".join(lines), ns)  # noqa: S102 - our own source, transformed
-    return jit(ns["per_statement"])
+    return _compile(lines, "per_statement")
 
 
 PER_STATEMENT = per_statement_block()
@@ -372,21 +386,10 @@ def flat_block(K: int) -> Any:
     same base plus a constant, so LLVM can prove that the rows do not overlap and
     vectorises the lane loop (zmm ``vmulpd`` on this machine). Returns ``f(s, h)``.
     """
-    src = inspect.getsource(soa_quat_block.py_func)
-    body = src[src.index("    for lane in range(K):") :].splitlines()[1:]
     lines = ["def flat(s, h):", "    hh = 0.5 * h", "    for lane in range(KK):"]
-    for line in (ln.strip() for ln in body):
-        if not line or line.startswith("#") or line.startswith("hh ="):
-            continue
-        if line.startswith("a, b, c, d"):
-            lines += [f"        {v} = s[{i} * KK + lane]" for i, v in enumerate("abcd")]
-        elif line.startswith("w0, w1, w2"):
-            lines += [f"        w{i} = s[{4 + i} * KK + lane]" for i in range(3)]
-        else:
-            lines.append("        " + re.sub(r"out\[(\d+), lane\]", lambda m: f"s[{7 + int(m.group(1))} * KK + lane]", line))
-    ns: dict[str, Any] = {"math": math, "KK": K}
-    exec("\n".join(lines), ns)  # noqa: S102 - our own source, transformed
-    f = jit(ns["flat"])
+    for st in _block_statements(lambda a, i: f"s[{i if a == 'q' else 4 + i} * KK + lane]"):
+        lines.append("        " + re.sub(r"out\[(\d+), lane\]", lambda m: f"s[{7 + int(m.group(1))} * KK + lane]", st))
+    f = _compile(lines, "flat", KK=K)
 
     @nb.njit(nogil=True)
     def rep(S, h, reps):
