@@ -926,6 +926,9 @@ def test_lockstep_coverage_counts_plain_lanes_and_the_slowest_lane() -> None:
     rec["fb"][0, 0] = 1.0  # a fallback takes run 0's first step off the lockstep path
     assert tool.coverage(rec, 2) == pytest.approx((9 / 15, 1.0), rel=1e-15)
     assert tool.coverage(rec, 1) == pytest.approx((9 / 15, 1.0), rel=1e-15)  # one lane: nothing to wait for
+    three = {"mode": np.ones((3, 2)), "nit": np.array([[1.0], [2.0], [5.0]]), "sub": np.zeros((3, 1)), "fb": np.zeros((3, 1))}
+    assert tool.coverage(three, 3) == pytest.approx((1.0, 11 / 18), rel=1e-15)  # costs 2, 3, 6: all wait for 6
+    assert tool.coverage(three, 3, leave=True) == pytest.approx((8 / 11, 8 / 9), rel=1e-15)  # wait for 3; 3 of 6 off the path
     need = tool.s_needed(0.9, 0.7, 2.5)
     assert tool.bound(0.9, 0.7, need) == pytest.approx(2.5) and tool.s_needed(0.5, 0.7, 2.5) == float("inf")
 
