@@ -37,6 +37,7 @@ Reported in docs/kernel_experiments.md ("Lockstep LU").
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from pathlib import Path
 from typing import Any
@@ -56,10 +57,16 @@ CELLS = [
 ]
 
 
+@functools.cache
+def default_design() -> tuple[Any, Any]:
+    """The default study's config and run table, built once for every cell."""
+    cfg = load_config(ROOT / "studies" / "default.toml")
+    return cfg, design(cfg)
+
+
 def lane_records(shape: str, substrate: str, incline: float, runs: int, duration: float | None = None) -> dict[str, np.ndarray]:
     """Per-step records (run, step) of the first ``runs`` runs of one cell of the default study."""
-    cfg = load_config(ROOT / "studies" / "default.toml")
-    des = design(cfg)
+    cfg, des = default_design()
     in_cell = (des["shape"].values == shape) & (des["substrate"].values == substrate) & (des["incline_deg"].values == incline)
     sel = np.flatnonzero(in_cell)[:runs]
     if len(sel) < runs:

@@ -436,6 +436,20 @@ def block_scalar_all(q, w, h, out, reps):
                     r[13 + i] = o[QS_JTH + i]
 
 
+def median_ns(paths: Any, rounds: int, reps: int, per: float) -> dict[str, float]:
+    """Median time of each ``(name, fn, args)`` path, times ``per`` (ns per unit of work).
+
+    Each round calls ``fn(*args, reps)`` once per path, the paths interleaved.
+    """
+    t: dict[str, list[float]] = {name: [] for name, _, _ in paths}
+    for _ in range(rounds):
+        for name, fn, args in paths:
+            t0 = time.perf_counter()
+            fn(*args, reps)
+            t[name].append(time.perf_counter() - t0)
+    return {k: float(np.median(v)) * per for k, v in t.items()}
+
+
 def compare_block(K: int, M: int = 4096, reps: int = 20, rounds: int = 7, seed: int = 2) -> dict[str, Any]:
     """Bit-for-bit check and median ns per lane of the residual's orientation block, lockstep and scalar."""
     rng = np.random.default_rng(seed)
@@ -457,19 +471,13 @@ def compare_block(K: int, M: int = 4096, reps: int = 20, rounds: int = 7, seed: 
     flat(S, h, 1)
     outf = S.reshape(M, 29, K)[:, 7:]
     same = all(np.array_equal(outs, o.transpose(0, 2, 1)) for o in (outv, outp, outf))
-    t: dict[str, list[float]] = {"scalar": [], "lockstep": [], "per_statement": [], "flat": []}
-    for _ in range(rounds):
-        for name, fn, args in (
-            ("scalar", block_scalar_all, (q, w, h, outs)),
-            ("lockstep", block_soa_all, (qv, wv, h, outv)),
-            ("per_statement", block_stmt_all, (qv, wv, h, outp)),
-            ("flat", flat, (S, h)),
-        ):
-            t0 = time.perf_counter()
-            fn(*args, reps)  # type: ignore[call-arg]
-            t[name].append(time.perf_counter() - t0)
-    per = 1e9 / (reps * M * K)
-    return {"K": K, "bit": same, **{k: float(np.median(v)) * per for k, v in t.items()}}
+    paths = (
+        ("scalar", block_scalar_all, (q, w, h, outs)),
+        ("lockstep", block_soa_all, (qv, wv, h, outv)),
+        ("per_statement", block_stmt_all, (qv, wv, h, outp)),
+        ("flat", flat, (S, h)),
+    )
+    return {"K": K, "bit": same, **median_ns(paths, rounds, reps, 1e9 / (reps * M * K))}
 
 
 # ---- the paths over every group ----------------------------------------------------
@@ -699,18 +707,13 @@ def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dic
         if both[m, lane]
     ]
     same_d = [np.array_equal(Xs[m, lane], Xd[m, lane]) for m in range(M) for lane in range(K) if oks[m, lane] and okd[m, lane]]
-    t: dict[str, list[float]] = {"scalar": [], "dense": [], "lockstep": [], "flat": []}
-    for _ in range(rounds):
-        for name, fn, args in (
-            ("scalar", scalar_all, (Jl, bs, Xs, oks)),
-            ("dense", dense_all, (Jl, bs, Xd, okd)),
-            ("lockstep", soa_all, (Js, bsv, Xv, okv)),
-            ("flat", flat, (Jf, bf, Xf, okf)),
-        ):
-            t0 = time.perf_counter()
-            fn(*args, reps)  # type: ignore[call-arg]
-            t[name].append(time.perf_counter() - t0)
-    ns = {k: float(np.median(v)) / (reps * M * K) * 1e9 for k, v in t.items()}
+    paths = (
+        ("scalar", scalar_all, (Jl, bs, Xs, oks)),
+        ("dense", dense_all, (Jl, bs, Xd, okd)),
+        ("lockstep", soa_all, (Js, bsv, Xv, okv)),
+        ("flat", flat, (Jf, bf, Xf, okf)),
+    )
+    ns = median_ns(paths, rounds, reps, 1e9 / (reps * M * K))
     return {
         "K": K,
         "groups": M,
