@@ -866,12 +866,15 @@ def test_jacobian_pattern_survey_runs_small(tmp_path: Path) -> None:
     assert tool.group_guard(a, {0: 0}, [1]) == 0.0 and tool.group_guard(a, {0: 1}, [0]) == 1.0
 
 
-@pytest.mark.parametrize("seed", [0, 2, 5])  # K = 1, 7, 8 lanes; n = 6, 12, 21
+@pytest.mark.parametrize(
+    "seed", [pytest.param(0, marks=pytest.mark.slow), 2, pytest.param(5, marks=pytest.mark.slow)]
+)  # K = 1, 7, 8 lanes; n = 6, 12, 21 (six compiled forms each: the fast tier keeps one)
 def test_lockstep_lu_experiment_solves_bit_for_bit_like_the_sparse_lu(seed: int) -> None:
     """tools/lockstep_lu.py's lockstep and dense LUs solve like the sparse LU, bit for bit.
 
     Every lane gets the scalar sparse LU's solution (docs/kernel_experiments.md, "Lockstep
-    LU"), ties and singular lanes included.
+    LU"), ties and singular lanes included, in each lockstep form (rows swapped, rows in
+    place, lanes unrolled).
     """
     tool = load_tool("lockstep_lu")
     rng = np.random.default_rng(seed)
@@ -886,6 +889,7 @@ def test_lockstep_lu_experiment_solves_bit_for_bit_like_the_sparse_lu(seed: int)
     c = tool.compare(runs, K, reps=1, rounds=1)
     assert c["groups"] == M and c["ok_equal"]
     assert c["bit_lockstep"] == 1.0 and c["bit_dense"] == 1.0
+    assert c["bit_inplace"] == 1.0  # rows in place, both forms: the same bit patterns, signed zeros too
     Js, _ = tool.groups(runs, K)
     assert np.array_equal(Js[1, :, :, 0], mats[1])  # lane 0 of group 1 is run 0's second matrix
 
@@ -907,7 +911,7 @@ def test_lockstep_lu_experiment_runs_small() -> None:
     text = load_tool("lockstep_lu").main(["--seconds", "0.005", "--runs", "2", "--lanes", "1,4", "--reps", "1", "--rounds", "1"])
     rows = [line.split("|") for line in text.splitlines() if line.startswith("| ") and "scenario" not in line]
     assert len(rows) == 6
-    assert all(r[4].strip() == "True" and float(r[5]) == 1.0 and float(r[6]) == 1.0 for r in rows)
+    assert all(r[4].strip() == "True" and float(r[5]) == 1.0 and float(r[6]) == 1.0 and float(r[11]) == 1.0 for r in rows)
 
 
 def test_lockstep_coverage_counts_plain_lanes_and_the_slowest_lane() -> None:
@@ -933,9 +937,28 @@ def test_lockstep_coverage_counts_plain_lanes_and_the_slowest_lane() -> None:
     assert tool.bound(0.9, 0.7, need) == pytest.approx(2.5) and tool.s_needed(0.5, 0.7, 2.5) == float("inf")
 
 
+def test_lockstep_coverage_weights_the_cells_over_the_main_job() -> None:
+    """tools/lockstep_coverage.py's main-job bound and the gain it needs, worked by hand."""
+    tool = load_tool("lockstep_coverage")
+    cells = {
+        ("cuboid", "paper", 45.0): (1.0, 0.5),  # at s = 2: time fraction 1
+        ("spiked", "paper", 20.0): (1.0, 1.0),  # 0.5; the paper class takes the mean, 0.75
+        ("cuboid", "aluminum", 30.0): (0.5, 1.0),  # 0.5 + 0.25
+        ("curved", "aluminum", 35.0): (0.0, 1.0),  # nothing in lockstep: 1
+    }
+    shares = {"paper": 0.5, "aluminum, not curved": 0.3, "curved, aluminum": 0.2}
+    assert tool.weighted(cells, shares, 2.0, False) == pytest.approx(1.0 / 0.8, rel=1e-14)
+    assert tool.weighted(cells, shares, 2.0, True) == pytest.approx(1.0 / 0.675, rel=1e-14)  # every e = 1
+    assert tool.s_for(cells, shares, 1.25, False) == pytest.approx(2.0, rel=1e-9)
+    assert tool.weighted(cells, shares, 1e12, False) == pytest.approx(1.0 / 0.35, rel=1e-9)  # the ceiling
+    assert tool.s_for(cells, shares, 3.0, False) == float("inf")
+
+
 @pytest.mark.slow
 def test_lockstep_coverage_runs_small() -> None:
     """The small version of tools/lockstep_coverage.py: every cell simulated and tabled."""
     text = load_tool("lockstep_coverage").main(["--runs", "2", "--lanes", "2", "--duration", "0.05"])
-    rows = [line.split("|") for line in text.splitlines() if line.startswith("| ") and "cell" not in line]
+    rows = [line.split("|") for line in text.splitlines() if line.startswith("| ") and " deg | " in line]
     assert len(rows) == 4 and all(0.0 < float(r[3]) <= 1.0 and 0.0 < float(r[4]) <= 1.0 for r in rows)
+    weighted = [line.split("|") for line in text.splitlines() if line.startswith("| 2 | ")]
+    assert len(weighted) == 9 and all(float(r[4].strip().rstrip("x")) >= 1.0 for r in weighted[:7])
