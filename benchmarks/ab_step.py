@@ -41,6 +41,13 @@ SCENARIOS: dict[str, dict[str, object]] = {
     },
 }
 
+#: more scenarios, by ``--scenarios`` (the curved robot on paper: its climbing and its
+#: rolling on the flat, where its many support points matter most)
+EXTRA: dict[str, dict[str, object]] = {
+    "curved_paper_45deg_1Hz": {"shape": "curved", "preset": "paper", "incline_deg": 45.0, "freq_hz": 1.0, "duration_s": 2.0},
+    "curved_paper_flat_10Hz": {"shape": "curved", "preset": "paper", "incline_deg": 0.0, "freq_hz": 10.0, "duration_s": 0.5},
+}
+
 # Runs inside the measured interpreter; works with the layout before and after the
 # restructuring (tumblemc.simulate.prepare(**kw) or model.run.prepare(run_inputs(**kw))).
 WORKER = r"""
@@ -92,8 +99,8 @@ def add_ab_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--cache-b", default=None, help="NUMBA_CACHE_DIR for B")
 
 
-def _run(python: str, cache: str | None, inner: int) -> dict[str, float]:
-    return dict(run_worker(python, cache, WORKER, json.dumps(SCENARIOS), str(inner)))
+def _run(python: str, cache: str | None, inner: int, scen: dict[str, dict[str, object]]) -> dict[str, float]:
+    return dict(run_worker(python, cache, WORKER, json.dumps(scen), str(inner)))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -102,17 +109,24 @@ def main(argv: list[str] | None = None) -> int:
     add_ab_arguments(ap)
     ap.add_argument("--rounds", type=int, default=5, help="processes per side (default 5)")
     ap.add_argument("--inner", type=int, default=3, help="timed runs per scenario and process (default 3)")
+    ap.add_argument("--scenarios", default=None, help=f"comma-separated names (default: the seven above; more: {', '.join(EXTRA)})")
     args = ap.parse_args(argv)
+    every = {**SCENARIOS, **EXTRA}
+    names = list(SCENARIOS) if args.scenarios is None else args.scenarios.split(",")
+    unknown = [n for n in names if n not in every]
+    if unknown:
+        ap.error(f"--scenarios: unknown {unknown} (allowed: {', '.join(every)})")
+    scen = {n: every[n] for n in names}
     res: dict[str, list[dict[str, float]]] = {"a": [], "b": []}
     for r in range(args.rounds):
         order = ("a", "b") if r % 2 == 0 else ("b", "a")
         for side in order:
             py, cache = (args.a, args.cache_a) if side == "a" else (args.b, args.cache_b)
-            res[side].append(_run(py, cache, args.inner))
+            res[side].append(_run(py, cache, args.inner, scen))
         print(f"round {r + 1}/{args.rounds} done", file=sys.stderr)
     print(f"{'scenario':34s} {'A us/step':>10s} {'B us/step':>10s} {'B/A':>7s}")
     ratios = []
-    for name in SCENARIOS:
+    for name in scen:
         a = statistics.median(x[name] for x in res["a"])
         b = statistics.median(x[name] for x in res["b"])
         ratios.append(b / a)

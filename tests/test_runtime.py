@@ -127,3 +127,23 @@ def test_cache_folder_follows_every_kernel_source(tmp_path: Path) -> None:
     # this process (conftest sets NUMBA_CACHE_DIR): Numba writes under the current sources' folder
     here = "kernels-" + _jit.kernels_digest()
     assert Path(numba.config.CACHE_DIR).name == here and Path(os.environ["NUMBA_CACHE_DIR"]).name == here
+
+
+def test_run_hashes_finds_every_difference() -> None:
+    """tools/run_hashes.py's comparison: a changed array, a missing one, a missing case."""
+    tool = load_tool("run_hashes")
+    a = {"c1": {"x": "00", "y": "11"}, "c2": {"x": "22"}}
+    assert tool.compare(a, {"c1": {"x": "00", "y": "11"}, "c2": {"x": "22"}}) == []
+    assert tool.compare(a, {"c1": {"x": "00", "y": "12"}, "c2": {"x": "22"}}) == ["c1: y"]
+    assert tool.compare(a, {"c1": {"x": "00"}, "c2": {"x": "22"}}) == ["c1: y"]
+    assert tool.compare(a, {"c1": {"x": "00", "y": "11"}}) == ["c2: x"]
+
+
+@pytest.mark.slow
+def test_run_hashes_of_one_case_repeat(tmp_path: Path) -> None:
+    """tools/run_hashes.py on one short case, twice: the same hashes (the runs are deterministic)."""
+    tool = load_tool("run_hashes")
+    for name in ("a.json", "b.json"):
+        assert tool.main(["--cases", "cuboid_offset_3d", "--out", str(tmp_path / name)]) == 0
+    assert tool.main(["--compare", str(tmp_path / "a.json"), str(tmp_path / "b.json")]) == 0
+    assert len(json.loads((tmp_path / "a.json").read_text())["cuboid_offset_3d"]) > 20
