@@ -564,18 +564,7 @@ def flat_lu(n: int, K: int) -> Any:
     reps)`` over groups ``Jf[m]`` (n n K) and right-hand sides ``bf[m]`` (n K).
     """
     NN = n * n * K
-
-    @jit
-    def flat_copy_amax(J, A, w):
-        # w: lane scratch (flat float): w[0:K] amax
-        for lane in range(K):
-            w[lane] = 0.0
-        for idx in range(n * n):
-            for lane in range(K):
-                v = J[idx * K + lane]
-                A[idx * K + lane] = v
-                a = abs(v)
-                w[lane] = a if a > w[lane] else w[lane]
+    flat_copy_amax = flat_copier(n * n, K)
 
     @jit
     def flat_factor(A, w, perm, lists):
@@ -674,6 +663,27 @@ def flat_lu(n: int, K: int) -> Any:
     return run_all
 
 
+def flat_copier(nn: int, K: int) -> Any:
+    """A compiled ``copy(J, A, amax)`` for the flat forms, ``nn`` and ``K`` compile-time constants.
+
+    ``A = J`` (``nn`` entries of K lanes, ``[idx * K + lane]``); ``amax[l]`` the largest
+    ``|J|`` of lane ``l``.
+    """
+
+    @jit
+    def copy(J, A, amax):
+        for lane in range(K):
+            amax[lane] = 0.0
+        for idx in range(nn):
+            for lane in range(K):
+                v = J[idx * K + lane]
+                A[idx * K + lane] = v
+                a = abs(v)
+                amax[lane] = a if a > amax[lane] else amax[lane]
+
+    return copy
+
+
 def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
     """The lockstep LU with every lane's rows left in place, as ``newton.lu_factor`` leaves them.
 
@@ -696,10 +706,12 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
     lists do, for all lanes at once).
     """
     NN = n * n * K
+    flat_copy_amax = flat_copier(n * n, K)
 
     @jit
-    def factor_masked(A, U, L, w, pos, row, lists, rm, cm):
-        # rm[r]: columns that may be nonzero in row r (any lane); cm[j]: rows that may be nonzero in column j
+    def factor(A, U, L, w, pos, row, lists, rm, cm):
+        # w: [0:K] amax, [K:2K] best, [2K:3K] best position, [3K:4K] inv, [4K:5K] ok, [5K:6K] pivot row;
+        # with masks, rm[r]: the columns that may be nonzero in row r (any lane), cm[j]: the rows of column j
         rows, nrows, cols, ncols = lists
         for lane in range(K):
             w[4 * K + lane] = 1.0
@@ -712,7 +724,7 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                 w[K + lane] = -1.0
                 w[2 * K + lane] = k  # no candidate (a zero column): lu_factor's p = k, a failed lane
                 w[5 * K + lane] = row[k * K + lane]
-            ck = cm[k]
+            ck = cm[k] if masks else np.int64(-1)
             for r in range(n):
                 if not (ck >> r) & 1:
                     continue
@@ -724,7 +736,6 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                     w[K + lane] = v if g else bb
                     w[2 * K + lane] = ps if g else w[2 * K + lane]
                     w[5 * K + lane] = r if g else w[5 * K + lane]
-            above = (np.int64(1) << (k + 1)) - 1
             cmask = np.int64(0)
             for lane in range(K):
                 if not w[K + lane] > PIVOT_REL * w[lane]:
@@ -737,20 +748,30 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                 row[k * K + lane] = rk
                 pos[rk * K + lane] = k
                 w[3 * K + lane] = 1.0 / A[(rk * n + k) * K + lane]
-                cmask |= rm[rk]
-            cmask &= ~above
+                if masks:
+                    cmask |= rm[rk]
+                else:
+                    for j in range(k, n):
+                        U[(k * n + j) * K + lane] = A[(rk * n + j) * K + lane]
             nc = 0
             for j in range(k + 1, n):
-                if (cmask >> j) & 1:
+                if masks:
+                    anz = (cmask >> j) & 1 == 1
+                else:
+                    anz = False
+                    for lane in range(K):
+                        anz |= U[(k * n + j) * K + lane] != 0.0
+                if anz:
                     cols[k * n + nc] = j
                     nc += 1
             ncols[k] = nc
-            for lane in range(K):
-                rk = int(w[5 * K + lane])
-                U[(k * n + k) * K + lane] = A[(rk * n + k) * K + lane]
-                for q in range(nc):
-                    j = cols[k * n + q]
-                    U[(k * n + j) * K + lane] = A[(rk * n + j) * K + lane]
+            if masks:
+                for lane in range(K):
+                    rk = int(w[5 * K + lane])
+                    U[(k * n + k) * K + lane] = A[(rk * n + k) * K + lane]
+                    for q in range(nc):
+                        j = cols[k * n + q]
+                        U[(k * n + j) * K + lane] = A[(rk * n + j) * K + lane]
             nr = 0
             for r in range(n):
                 if not (ck >> r) & 1:
@@ -766,78 +787,12 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                     continue
                 rows[k * n + nr] = r
                 nr += 1
-                rm[r] |= cmask
+                if masks:
+                    rm[r] |= cmask
                 for q in range(nc):
                     j = cols[k * n + q]
-                    cm[j] |= np.int64(1) << r
-                    for lane in range(K):
-                        f = L[(k * n + r) * K + lane]
-                        u = U[(k * n + j) * K + lane]
-                        x = A[(r * n + j) * K + lane]
-                        A[(r * n + j) * K + lane] = x - f * u if (f != 0.0) & (u != 0.0) else x
-            nrows[k] = nr
-
-    @jit
-    def factor(A, U, L, w, pos, row, lists):
-        # w: [0:K] amax, [K:2K] best, [2K:3K] best position, [3K:4K] inv, [4K:5K] ok, [5K:6K] pivot row
-        rows, nrows, cols, ncols = lists
-        for lane in range(K):
-            w[4 * K + lane] = 1.0
-        for r in range(n):
-            for lane in range(K):
-                pos[r * K + lane] = r
-                row[r * K + lane] = r
-        for k in range(n):
-            for lane in range(K):
-                w[K + lane] = -1.0
-                w[2 * K + lane] = n
-                w[5 * K + lane] = 0
-            for r in range(n):
-                for lane in range(K):
-                    v = abs(A[(r * n + k) * K + lane])
-                    ps = pos[r * K + lane]
-                    bb = w[K + lane]
-                    g = (ps >= k) & ((v > bb) | ((v == bb) & (ps < w[2 * K + lane])))
-                    w[K + lane] = v if g else bb
-                    w[2 * K + lane] = ps if g else w[2 * K + lane]
-                    w[5 * K + lane] = r if g else w[5 * K + lane]
-            for lane in range(K):
-                if not w[K + lane] > PIVOT_REL * w[lane]:
-                    w[4 * K + lane] = 0.0
-                rk = int(w[5 * K + lane])
-                p = int(w[2 * K + lane])
-                r0 = row[k * K + lane]
-                row[p * K + lane] = r0
-                pos[r0 * K + lane] = p
-                row[k * K + lane] = rk
-                pos[rk * K + lane] = k
-                w[3 * K + lane] = 1.0 / A[(rk * n + k) * K + lane]
-                for j in range(k, n):
-                    U[(k * n + j) * K + lane] = A[(rk * n + j) * K + lane]
-            nc = 0
-            for j in range(k + 1, n):
-                anz = False
-                for lane in range(K):
-                    anz |= U[(k * n + j) * K + lane] != 0.0
-                if anz:
-                    cols[k * n + nc] = j
-                    nc += 1
-            ncols[k] = nc
-            nr = 0
-            for r in range(n):
-                anz = False
-                for lane in range(K):
-                    a = A[(r * n + k) * K + lane]
-                    live = (pos[r * K + lane] > k) & (a != 0.0)
-                    f = a * w[3 * K + lane] if live else 0.0
-                    L[(k * n + r) * K + lane] = f
-                    anz |= live
-                if not anz:
-                    continue
-                rows[k * n + nr] = r
-                nr += 1
-                for q in range(nc):
-                    j = cols[k * n + q]
+                    if masks:
+                        cm[j] |= np.int64(1) << r
                     for lane in range(K):
                         f = L[(k * n + r) * K + lane]
                         u = U[(k * n + j) * K + lane]
@@ -887,15 +842,7 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                 b = X[m]
                 for i in range(n * K):
                     b[i] = bsv[m, i]
-                J = Jf[m]
-                for lane in range(K):
-                    w[lane] = 0.0
-                for idx in range(n * n):
-                    for lane in range(K):
-                        v = J[idx * K + lane]
-                        A[idx * K + lane] = v
-                        a = abs(v)
-                        w[lane] = a if a > w[lane] else w[lane]
+                flat_copy_amax(Jf[m], A, w)
                 if masks:
                     for i in range(n):
                         rm[i] = 0
@@ -908,9 +855,7 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                             if anz:
                                 rm[i] |= np.int64(1) << j
                                 cm[j] |= np.int64(1) << i
-                    factor_masked(A, U, L, w, pos, row, lists, rm, cm)
-                else:
-                    factor(A, U, L, w, pos, row, lists)
+                factor(A, U, L, w, pos, row, lists, rm, cm)
                 solve(U, L, b, y, row, lists)
                 for lane in range(K):
                     okv[m, lane] = w[4 * K + lane] > 0.5
@@ -1000,6 +945,7 @@ def unrolled_lu(n: int, K: int) -> Any:
     factor = _compile(f, "factor", NN_=n, KK=K, PIVOT_REL=PIVOT_REL)
     solve = _compile(s, "solve", NN_=n, KK=K)
     NN = n * n * K
+    flat_copy_amax = flat_copier(n * n, K)
 
     @nb.njit(nogil=True)
     def run_all(Jf, bsv, X, okv, reps):
@@ -1018,15 +964,7 @@ def unrolled_lu(n: int, K: int) -> Any:
                 b = X[m]
                 for i in range(n * K):
                     b[i] = bsv[m, i]
-                J = Jf[m]
-                for lane in range(K):
-                    amax[lane] = 0.0
-                for idx in range(n * n):
-                    for lane in range(K):
-                        v = J[idx * K + lane]
-                        A[idx * K + lane] = v
-                        a = abs(v)
-                        amax[lane] = a if a > amax[lane] else amax[lane]
+                flat_copy_amax(Jf[m], A, amax)
                 factor(A, U, L, amax, ok, pos, row, lists)
                 solve(U, L, b, y, row, lists)
                 for lane in range(K):
