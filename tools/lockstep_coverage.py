@@ -131,7 +131,9 @@ def coverage(rec: dict[str, np.ndarray], K: int, leave: bool = False) -> tuple[f
 
 
 def bound(c: float, e: float, s: float) -> float:
-    """Per-run speed-up bound ``1 / ((1 - c) + c / (s e))``."""
+    """Per-run speed-up bound ``1 / ((1 - c) + c / (s e))`` (1 with nothing in lockstep, ``c = 0``)."""
+    if c == 0.0:
+        return 1.0
     return 1.0 / ((1.0 - c) + c / (s * e))
 
 
@@ -149,10 +151,10 @@ CLASS_OF = {
     ("cuboid", "aluminum", 30.0): "aluminum, not curved",
     ("curved", "aluminum", 35.0): "curved, aluminum",
 }
-#: the classes' shares of the main job's modelled cost (steps x (1 + iterations), steps up
-#: to ``decided_time`` for runs decided early), from its run at 46d8347 (2026-11-29;
-#: ``--main-job FILE`` recomputes them from any main job's netCDF)
-MAIN_JOB_SHARES = {"paper": 0.442, "aluminum, not curved": 0.379, "curved, aluminum": 0.180}
+#: the classes' shares of the main job's modelled cost (:func:`main_job_shares`), from its
+#: run at 46d8347 (2026-11-29; ``--main-job FILE`` recomputes them from any main job's
+#: netCDF)
+MAIN_JOB_SHARES = {"paper": 0.440, "aluminum, not curved": 0.379, "curved, aluminum": 0.181}
 #: the best per-lane gain any lockstep kernel reached (``tools/lockstep_lu.py --block``:
 #: straight-line code, flat layout, K = 8 and 16)
 BEST_KERNEL_GAIN = 6.6
@@ -171,7 +173,9 @@ def main_job_shares(path: Path) -> dict[str, float]:
     """The classes' shares of a main job's modelled cost.
 
     Read from its ``runs`` group: steps of the study's dt up to the run's end, or to
-    ``decided_time`` for a run decided early, times ``1 + iterations``.
+    ``decided_time`` for a run decided early, times ``1 + iterations``; each check run (at
+    ``dt / check_dt_factor``, to the end) adds its run's cost to the end times the factor
+    (its iterations taken as its run's).
     """
     import json
 
@@ -183,7 +187,12 @@ def main_job_shares(path: Path) -> dict[str, float]:
         dt = float(ds.attrs["dt"])
         end = cfg["periods"] / ds["freq_hz"].values
         t = np.where(ds["decided_early"].values == 1, ds["decided_time"].values, end)
-        cost = t / dt * (1.0 + ds["newton_iterations"].values)
+        nit = ds["newton_iterations"].values
+        cost = t / dt * (1.0 + nit)
+        if "check_run" in ds:
+            chk = ds["check_run"].values
+            cost = cost.copy()
+            np.add.at(cost, chk, float(ds.attrs["check_dt_factor"]) * end[chk] / dt * (1.0 + nit[chk]))
         paper = ds["substrate"].values == "paper"
         curved = ds["shape"].values == "curved"
     cls = np.where(paper, "paper", np.where(curved, "curved, aluminum", "aluminum, not curved"))
@@ -192,20 +201,33 @@ def main_job_shares(path: Path) -> dict[str, float]:
 
 
 def weighted(per_cell: dict[tuple[str, str, float], tuple[float, float]], shares: dict[str, float], s: float, e_one: bool) -> float:
-    """The main job's bound: each class's time fraction (the mean over its cells) weighted by its share."""
+    """The main job's bound: each class's time fraction (the mean over its cells) weighted by its share.
+
+    The shares are normalised to sum to 1. A class without a cell, or a cell of no class
+    (``CLASS_OF``), is an error.
+    """
+    unknown = [cell for cell in per_cell if cell not in CLASS_OF]
+    if unknown:
+        raise ValueError(f"cells {unknown} stand for no class of the main job (CLASS_OF)")
+    total = sum(shares.values())
     frac = 0.0
     for cls, w in shares.items():
         fs = [1.0 / bound(c, 1.0 if e_one else e, s) for cell, (c, e) in per_cell.items() if CLASS_OF[cell] == cls]
-        frac += w * float(np.mean(fs))
+        if not fs:
+            raise ValueError(f"no measured cell stands for the class {cls!r} (CLASS_OF)")
+        frac += w / total * float(np.mean(fs))
     return 1.0 / frac
 
 
 def s_for(per_cell: dict[tuple[str, str, float], tuple[float, float]], shares: dict[str, float], target: float, e_one: bool) -> float:
     """The kernel gain at which :func:`weighted` reaches ``target`` (inf if its ceiling is below)."""
-    if weighted(per_cell, shares, 1e12, e_one) < target:
+    ceiling = weighted(per_cell, shares, 1e12, e_one)
+    if math.isnan(ceiling):
+        raise ValueError("the weighted bound is NaN (a cell's efficiency is undefined)")
+    if ceiling < target:
         return float("inf")
     lo, hi = 0.01, 1e12
-    for _ in range(200):
+    for _ in range(100):  # the bracket's log ratio halves each step
         mid = math.sqrt(lo * hi)
         lo, hi = (mid, hi) if weighted(per_cell, shares, mid, e_one) < target else (lo, mid)
     return hi

@@ -684,6 +684,56 @@ def flat_copier(nn: int, K: int) -> Any:
     return copy
 
 
+def _inplace_harness(n: int, K: int, factor: Any, solve: Any, masks: bool) -> Any:
+    """``run_all(Jf, bf, X, okv, reps)`` (as :func:`flat_lu`) around a rows-in-place LU.
+
+    ``factor(A, U, L, w, pos, row, lists, rm, cm)`` and ``solve(U, L, b, y, row, lists)``
+    (:func:`inplace_lu`, :func:`unrolled_lu`); ``w[0:K]`` each lane's largest ``|J|``,
+    ``w[4K:5K]`` its ok flag. With ``masks`` the pattern's bit masks ``rm``, ``cm`` are
+    set from each copy.
+    """
+    NN = n * n * K
+    flat_copy_amax = flat_copier(n * n, K)
+
+    @nb.njit(nogil=True)
+    def run_all(Jf, bsv, X, okv, reps):
+        M = Jf.shape[0]
+        A = np.zeros(NN)
+        U = np.zeros(NN)
+        L = np.zeros(NN)
+        w = np.zeros(6 * K)
+        y = np.zeros((n + 1) * K)
+        pos = np.zeros(n * K, np.int64)
+        row = np.zeros(n * K, np.int64)
+        rm = np.zeros(n, np.int64)
+        cm = np.zeros(n, np.int64)
+        lists = (np.zeros(n * n, np.int64), np.zeros(n, np.int64), np.zeros(n * n, np.int64), np.zeros(n, np.int64))
+        for _ in range(reps):
+            for m in range(M):
+                b = X[m]
+                for i in range(n * K):
+                    b[i] = bsv[m, i]
+                flat_copy_amax(Jf[m], A, w)
+                if masks:
+                    for i in range(n):
+                        rm[i] = 0
+                        cm[i] = 0
+                    for i in range(n):
+                        for j in range(n):
+                            anz = False
+                            for lane in range(K):
+                                anz |= A[(i * n + j) * K + lane] != 0.0
+                            if anz:
+                                rm[i] |= np.int64(1) << j
+                                cm[j] |= np.int64(1) << i
+                factor(A, U, L, w, pos, row, lists, rm, cm)
+                solve(U, L, b, y, row, lists)
+                for lane in range(K):
+                    okv[m, lane] = w[4 * K + lane] > 0.5
+
+    return run_all
+
+
 def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
     """The lockstep LU with every lane's rows left in place, as ``newton.lu_factor`` leaves them.
 
@@ -705,8 +755,8 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
     the pivot rows are copied only on the columns of their masks (what the scalar LU's
     lists do, for all lanes at once).
     """
-    NN = n * n * K
-    flat_copy_amax = flat_copier(n * n, K)
+    if masks and n > 63:
+        raise ValueError(f"inplace_lu(masks=True) holds a row's pattern in an int64: n={n} must be at most 63")
 
     @jit
     def factor(A, U, L, w, pos, row, lists, rm, cm):
@@ -721,9 +771,11 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                 row[r * K + lane] = r
         for k in range(n):
             for lane in range(K):
-                w[K + lane] = -1.0
-                w[2 * K + lane] = k  # no candidate (a zero column): lu_factor's p = k, a failed lane
-                w[5 * K + lane] = row[k * K + lane]
+                # lu_factor starts from the row at position k (a NaN there fails the lane, as there)
+                rk0 = row[k * K + lane]
+                w[K + lane] = abs(A[(rk0 * n + k) * K + lane])
+                w[2 * K + lane] = k
+                w[5 * K + lane] = rk0
             ck = cm[k] if masks else np.int64(-1)
             for r in range(n):
                 if not (ck >> r) & 1:
@@ -732,7 +784,7 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
                     v = abs(A[(r * n + k) * K + lane])
                     ps = pos[r * K + lane]
                     bb = w[K + lane]
-                    g = (ps >= k) & ((v > bb) | ((v == bb) & (ps < w[2 * K + lane])))
+                    g = (ps > k) & ((v > bb) | ((v == bb) & (ps < w[2 * K + lane])))
                     w[K + lane] = v if g else bb
                     w[2 * K + lane] = ps if g else w[2 * K + lane]
                     w[5 * K + lane] = r if g else w[5 * K + lane]
@@ -824,43 +876,7 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
             for lane in range(K):
                 b[i * K + lane] = y[n * K + lane] / U[(i * n + i) * K + lane]
 
-    @nb.njit(nogil=True)
-    def run_all(Jf, bsv, X, okv, reps):
-        M = Jf.shape[0]
-        A = np.zeros(NN)
-        U = np.zeros(NN)
-        L = np.zeros(NN)
-        w = np.zeros(6 * K)
-        y = np.zeros((n + 1) * K)
-        pos = np.zeros(n * K, np.int64)
-        row = np.zeros(n * K, np.int64)
-        rm = np.zeros(n, np.int64)
-        cm = np.zeros(n, np.int64)
-        lists = (np.zeros(n * n, np.int64), np.zeros(n, np.int64), np.zeros(n * n, np.int64), np.zeros(n, np.int64))
-        for _ in range(reps):
-            for m in range(M):
-                b = X[m]
-                for i in range(n * K):
-                    b[i] = bsv[m, i]
-                flat_copy_amax(Jf[m], A, w)
-                if masks:
-                    for i in range(n):
-                        rm[i] = 0
-                        cm[i] = 0
-                    for i in range(n):
-                        for j in range(n):
-                            anz = False
-                            for lane in range(K):
-                                anz |= A[(i * n + j) * K + lane] != 0.0
-                            if anz:
-                                rm[i] |= np.int64(1) << j
-                                cm[j] |= np.int64(1) << i
-                factor(A, U, L, w, pos, row, lists, rm, cm)
-                solve(U, L, b, y, row, lists)
-                for lane in range(K):
-                    okv[m, lane] = w[4 * K + lane] > 0.5
-
-    return run_all
+    return _inplace_harness(n, K, factor, solve, masks)
 
 
 def _lanes(K: int, indent: int, *stmts: str) -> list[str]:
@@ -880,26 +896,26 @@ def unrolled_lu(n: int, K: int) -> Any:
     compile-time constants. Returns ``run_all`` as :func:`flat_lu`.
     """
     L_ = _lanes
-    f = ["def factor(A, U, L, amax, ok, pos, row, lists):", "    rows, nrows, cols, ncols = lists"]
+    f = ["def factor(A, U, L, w, pos, row, lists, rm, cm):", "    rows, nrows, cols, ncols = lists"]
     f += L_(K, 4, "ok{l} = True")
     f += ["    for r in range(NN_):"]
     f += L_(K, 8, "pos[r * KK + {l}] = r", "row[r * KK + {l}] = r")
     f += ["    for k in range(NN_):"]
-    f += L_(K, 8, "b{l} = -1.0", "bp{l} = NN_", "br{l} = 0")
+    f += L_(K, 8, "br{l} = row[k * KK + {l}]", "b{l} = abs(A[(br{l} * NN_ + k) * KK + {l}])", "bp{l} = k")
     f += ["        for r in range(NN_):", "            base = (r * NN_ + k) * KK"]
     f += L_(
         K,
         12,
         "v{l} = abs(A[base + {l}])",
         "ps{l} = pos[r * KK + {l}]",
-        "g{l} = (ps{l} >= k) & ((v{l} > b{l}) | ((v{l} == b{l}) & (ps{l} < bp{l})))",
+        "g{l} = (ps{l} > k) & ((v{l} > b{l}) | ((v{l} == b{l}) & (ps{l} < bp{l})))",
         "b{l} = v{l} if g{l} else b{l}",
         "bp{l} = ps{l} if g{l} else bp{l}",
         "br{l} = r if g{l} else br{l}",
     )
     for lane in range(K):
         f += [
-            f"        ok{lane} = ok{lane} & (b{lane} > PIVOT_REL * amax[{lane}])",
+            f"        ok{lane} = ok{lane} & (b{lane} > PIVOT_REL * w[{lane}])",
             f"        r0 = row[k * KK + {lane}]",
             f"        row[bp{lane} * KK + {lane}] = r0",
             f"        pos[r0 * KK + {lane}] = bp{lane}",
@@ -929,7 +945,7 @@ def unrolled_lu(n: int, K: int) -> Any:
     f += L_(K, 16, "x{l} = A[xb + {l}]", "u{l} = U[ub + {l}]", "y{l} = x{l} - f{l} * u{l} if (f{l} != 0.0) & (u{l} != 0.0) else x{l}")
     f += L_(K, 16, "A[xb + {l}] = y{l}")
     f += ["        nrows[k] = nr"]
-    f += L_(K, 4, "ok[{l}] = ok{l}")
+    f += L_(K, 4, "w[4 * KK + {l}] = 1.0 if ok{l} else 0.0")
 
     s = ["def solve(U, L, b, y, row, lists):", "    rows, nrows, cols, ncols = lists", "    for k in range(NN_):"]
     s += L_(K, 8, "bk{l} = b[row[k * KK + {l}] * KK + {l}]", "y[k * KK + {l}] = bk{l}")
@@ -944,42 +960,20 @@ def unrolled_lu(n: int, K: int) -> Any:
     s += L_(K, 8, "b[i * KK + {l}] = c{l} / U[db + {l}]")
     factor = _compile(f, "factor", NN_=n, KK=K, PIVOT_REL=PIVOT_REL)
     solve = _compile(s, "solve", NN_=n, KK=K)
-    NN = n * n * K
-    flat_copy_amax = flat_copier(n * n, K)
-
-    @nb.njit(nogil=True)
-    def run_all(Jf, bsv, X, okv, reps):
-        M = Jf.shape[0]
-        A = np.zeros(NN)
-        U = np.zeros(NN)
-        L = np.zeros(NN)
-        amax = np.zeros(K)
-        ok = np.zeros(K, np.bool_)
-        y = np.zeros(n * K)
-        pos = np.zeros(n * K, np.int64)
-        row = np.zeros(n * K, np.int64)
-        lists = (np.zeros(n * n, np.int64), np.zeros(n, np.int64), np.zeros(n * n, np.int64), np.zeros(n, np.int64))
-        for _ in range(reps):
-            for m in range(M):
-                b = X[m]
-                for i in range(n * K):
-                    b[i] = bsv[m, i]
-                flat_copy_amax(Jf[m], A, amax)
-                factor(A, U, L, amax, ok, pos, row, lists)
-                solve(U, L, b, y, row, lists)
-                for lane in range(K):
-                    okv[m, lane] = ok[lane]
-
-    return run_all
+    return _inplace_harness(n, K, factor, solve, False)
 
 
 def bitwise_equal(a: np.ndarray, b: np.ndarray) -> bool:
     """Equal bit patterns (signed zeros and NaN payloads told apart)."""
-    return bool(np.array_equal(a.view(np.int64), b.view(np.int64)))
+    return bool(np.array_equal(np.ascontiguousarray(a).view(np.int64), np.ascontiguousarray(b).view(np.int64)))
 
 
-def groups(runs: list[list[np.ndarray]], K: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Lockstep groups of K lanes from the captured runs: ``(M, n, n, K)`` matrices and ``(M, n, K)`` right-hand sides."""
+def groups(runs: list[list[np.ndarray]], K: int, seed: int = 1, zeros: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Lockstep groups of K lanes from the captured runs: ``(M, n, n, K)`` matrices and ``(M, n, K)`` right-hand sides.
+
+    With ``zeros``, a fifth of the right-hand sides' entries are +0.0 and a fifth -0.0
+    (the tests' signed zeros).
+    """
     R = len(runs)
     lanes = [runs[lane % R][(lane // R) * LANE_SHIFT :] for lane in range(K)]
     M = min(len(r) for r in lanes)
@@ -988,12 +982,18 @@ def groups(runs: list[list[np.ndarray]], K: int, seed: int = 1) -> tuple[np.ndar
     for lane, r in enumerate(lanes):
         for m in range(M):
             Js[m, :, :, lane] = r[m]
-    return Js, np.random.default_rng(seed).standard_normal((M, n, K))
+    rng = np.random.default_rng(seed)
+    bs = rng.standard_normal((M, n, K))
+    if zeros:
+        u = rng.random((M, n, K))
+        bs[u < 0.2] = 0.0
+        bs[u > 0.8] = -0.0
+    return Js, bs
 
 
-def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dict[str, Any]:
-    """Bit-for-bit check and median times (ns per matrix) of the four paths on K-lane groups."""
-    Js, bsv = groups(runs, K)
+def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int, zeros: bool = False) -> dict[str, Any]:
+    """Bit-for-bit check and median times (ns per matrix) of every path on K-lane groups (``zeros``: :func:`groups`)."""
+    Js, bsv = groups(runs, K, zeros=zeros)
     M, n = Js.shape[0], Js.shape[1]
     Jl = np.ascontiguousarray(Js.transpose(0, 3, 1, 2))
     bs = np.ascontiguousarray(bsv.transpose(0, 2, 1))
@@ -1020,7 +1020,7 @@ def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dic
     Xi3 = Xi.reshape(M, n, K)
     both = oks & okv
     same = [
-        np.array_equal(Xs[m, lane], Xv[m, :, lane]) and np.array_equal(Xs[m, lane], Xf3[m, :, lane])
+        bitwise_equal(Xs[m, lane], Xv[m, :, lane]) and bitwise_equal(Xs[m, lane], Xf3[m, :, lane])
         for m in range(M)
         for lane in range(K)
         if both[m, lane]
@@ -1035,7 +1035,10 @@ def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dic
         for lane in range(K)
         if oks[m, lane] and oki[m, lane]
     ]
-    same_d = [np.array_equal(Xs[m, lane], Xd[m, lane]) for m in range(M) for lane in range(K) if oks[m, lane] and okd[m, lane]]
+    both_d = [(m, lane) for m in range(M) for lane in range(K) if oks[m, lane] and okd[m, lane]]
+    same_d = [bitwise_equal(Xs[m, lane], Xd[m, lane]) for m, lane in both_d]
+    # the dense LU also updates the zeros of the pivot row (x - f * 0 turns -0.0 into +0.0)
+    value_d = [np.array_equal(Xs[m, lane], Xd[m, lane], equal_nan=True) for m, lane in both_d]
     paths = (
         ("scalar", scalar_all, (Jl, bs, Xs, oks)),
         ("dense", dense_all, (Jl, bs, Xd, okd)),
@@ -1053,6 +1056,7 @@ def compare(runs: list[list[np.ndarray]], K: int, reps: int, rounds: int) -> dic
         "bit_inplace": float(np.mean(same_i)) if same_i else float("nan"),
         "bit_lockstep": float(np.mean(same)) if same else float("nan"),
         "bit_dense": float(np.mean(same_d)) if same_d else float("nan"),
+        "value_dense": float(np.mean(value_d)) if value_d else float("nan"),
         **ns,
     }
 
@@ -1101,7 +1105,7 @@ def main(argv: list[str] | None = None) -> str:
         "",
         "| scenario | K | groups | ok flags equal | lockstep bit-identical | dense bit-identical "
         "| scalar sparse (today) | dense scalar | lockstep | flat lockstep, n and K constant "
-        "| rows in place: bit-identical (signed zeros too) | rows in place | rows in place, lanes unrolled "
+        "| rows in place: bit-identical | rows in place | rows in place, lanes unrolled "
         "| rows in place, pattern masks | today / best lockstep |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]

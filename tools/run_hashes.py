@@ -7,7 +7,8 @@
 A refactor or a speed change that claims the same arithmetic should leave every run's
 records unchanged. Each case below (every shape; paper and aluminum; inclines, flat, 10 Hz;
 a 3-D magnetisation) is simulated with every step recorded (``record_every=1``), and the
-SHA-256 of each data variable's bytes is written. ``--compare`` lists the cases and
+SHA-256 of each variable's bytes (data and coordinates) and of the run's attributes is
+written. ``--compare`` lists the cases and
 variables that differ, and exits 1 if any does.
 """
 
@@ -39,15 +40,26 @@ CASES: dict[str, dict[str, Any]] = {
 }
 
 
+#: attributes that name the version or describe the file, not the run's result
+SKIP_ATTRS = ("tumblemc_version", "source", "title", "Conventions", "status_meanings")
+
+
 def hashes(cases: dict[str, dict[str, Any]]) -> dict[str, dict[str, str]]:
-    """SHA-256 of every data variable of each case's records."""
+    """SHA-256 of every variable (data and coordinates) of each case's records, and of its attributes.
+
+    The attributes hold the run's status, counters and energy figures; :data:`SKIP_ATTRS`
+    are left out.
+    """
     import tumblemc
 
     out: dict[str, dict[str, str]] = {}
     for name, kw in cases.items():
         print(f"{name} ...", file=sys.stderr, flush=True)
         ds = tumblemc.simulate(**kw, record_every=1)
-        out[name] = {v: hashlib.sha256(ds[v].values.tobytes()).hexdigest() for v in sorted(str(k) for k in ds.data_vars)}
+        h = {v: hashlib.sha256(ds[v].values.tobytes()).hexdigest() for v in sorted(str(k) for k in ds.variables)}
+        attrs = {k: repr(v) for k, v in sorted(ds.attrs.items()) if k not in SKIP_ATTRS}
+        h["(attributes)"] = hashlib.sha256(json.dumps(attrs, sort_keys=True).encode()).hexdigest()
+        out[name] = h
     return out
 
 
