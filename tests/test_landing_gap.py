@@ -12,16 +12,16 @@ strategy and every halving used to fail (the best attempt was kept, a failed ste
 - ``line``: the aluminum robot resting on its long bottom edge, exactly level, while it rolls
   one end into the plane (stress 3-D run 39 with ``warm_order=4``, t = 0.5111 s): the
   solution sticks along the whole edge with the ECP inside it (guess 10, the impact of a level
-  edge; saved by ``tools/line_landing.py``);
+  edge; saved by ``tests/data/line_landing.py``);
 - ``spin``: the aluminum robot, thrown up by the field, landing on a vertex while it turns
   about the normal at 426 rad/s (run 110 of ``three_d_runs(n=400, seed=2)``, t = 0.0423 s):
   the torsional friction stops the turn within the step (guess 11, the point impact that
-  sticks in torsion too; also saved by ``tools/line_landing.py``);
+  sticks in torsion too; also saved by ``tests/data/line_landing.py``);
 - ``pivot``: an edge landing of reproducer 1 at dt = 3.125e-6 s (t = 0.42259 s) whose
   sticking impact has a regular Newton matrix that ``lu_factor`` called singular, because
   the torsional friction row (``mu e_r lam_n``) is 3e6 times the unit rows at an impact
   force of 3,194 (scaled): solved since the pivot test looks at the pivot's own row
-  (docs/solver_gaps.md, section 7; also saved by ``tools/line_landing.py``).
+  (docs/solver_gaps.md, section 7; also saved by ``tests/data/line_landing.py``).
 
 The slow tests run the whole reproducers. The ``impact`` state sits 1.3 cm from the origin,
 so the time loop now moves its origin first (``_recentre``, docs/solver_gaps.md, section 3).

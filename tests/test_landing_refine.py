@@ -5,7 +5,7 @@ one step; where it lands, the end-pose contact can throw it back out, so the con
 normal impulse does positive work (docs/stress.md, class ``energy_gain``). Such a step is
 solved again as halves; the refinement is kept only if every sub-step converges and it
 does less positive normal work than the step it replaces. The two steps are saved by
-``tools/fast_landings.py`` from stress run 122 at the paper's fixed step.
+``tests/data/fast_landings.py`` from stress run 122 at the paper's fixed step.
 """
 
 from __future__ import annotations
@@ -156,14 +156,3 @@ def test_pivot_row_test_out_of_range_names_the_field(bad: object) -> None:
 def test_impulse_accept_tol_out_of_range_names_the_field(bad: float) -> None:
     with pytest.raises(ValueError, match="impulse_accept_tol"):
         tumblemc.SolverOptions(impulse_accept_tol=bad)
-
-
-def test_reproducer_ladder_small_version() -> None:
-    """CI's small version of tools/reproducer_ladder.py (docs/energy_ledger.md): two coarse steps."""
-    text = load_tool("reproducer_ladder").main(["--dt", "1e-4", "--dt", "5e-5"])
-    rows = [r.split("|") for r in text.splitlines()[2:]]
-    assert [float(r[1]) for r in rows] == [1e-4, 5e-5]
-    assert all(int(r[3]) == 0 for r in rows)  # no failed steps at the coarse steps
-    assert all(float(r[2]) > 5.0 for r in rows)  # the snap hop: many times the no-slip gait
-    with pytest.raises(SystemExit):
-        load_tool("reproducer_ladder").main(["--dt", "3e-5"])  # does not divide 4 s

@@ -1,6 +1,6 @@
 """Late landings: one in the second half of a halved step, one whose refinement's half-step does not converge.
 
-The first saved step (``tools/late_landing.py``: the spiked robot sliding down aluminum at 70 deg,
+The first saved step (``tests/data/late_landing.py``: the spiked robot sliding down aluminum at 70 deg,
 20 m/s) does not converge at dt and is halved; its second half lands. The landing
 refinement checked only a step's first sub-step, so that landing was kept with a normal
 impulse doing 16.6 energy scales of positive work (1.3e-6 J), the run's whole energy gain.

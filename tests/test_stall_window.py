@@ -2,7 +2,7 @@
 
 A smoothing attempt that neither halves its residual nor lowers its smoothing parameter in
 ``stall_window`` iterations stops there instead of running on to its 300-iteration limit.
-The saved step (``tools/stall_step.py``) is a refined step of the curved robot sliding on
+The saved step (``tests/data/stall_step.py``) is a refined step of the curved robot sliding on
 aluminum whose smoothing attempts never converge: the window changes the work, not what is
 kept.
 """

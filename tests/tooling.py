@@ -1,4 +1,4 @@
-"""Helpers of the tests: a script of ``tools/`` loaded as a module, one kernel step from a saved start."""
+"""Helpers of the tests: a script loaded as a module, one kernel step from a saved start."""
 
 from __future__ import annotations
 
@@ -9,12 +9,17 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-TOOLS = Path(__file__).resolve().parents[1] / "tools"
+ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "tools"
+#: where scripts live: the maintained tools, the generators of the saved test data, the archived experiments
+SCRIPT_DIRS = (TOOLS, ROOT / "tests" / "data", ROOT / "experiments")
 
 
 def load_tool(name: str) -> ModuleType:
-    """``tools/<name>.py`` imported as module ``name`` (registered in ``sys.modules``: dataclasses look it up)."""
-    spec = importlib.util.spec_from_file_location(name, TOOLS / f"{name}.py")
+    """``<name>.py`` of :data:`SCRIPT_DIRS` imported as module ``name`` (registered in ``sys.modules``: dataclasses look it up)."""
+    path = next((d / f"{name}.py" for d in SCRIPT_DIRS if (d / f"{name}.py").is_file()), None)
+    assert path is not None, f"no script {name}.py in {[str(d) for d in SCRIPT_DIRS]}"
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = mod
@@ -23,7 +28,7 @@ def load_tool(name: str) -> ModuleType:
 
 
 def one_step(saved: Mapping[str, Any], spec: Any, prefix: str = "", h: float | None = None) -> tuple[Any, Any, Any, Any]:
-    """One kernel step from a saved start (``tools/fast_landings.before_step``'s keys, each with ``prefix``).
+    """One kernel step from a saved start (``tests/data/fast_landings.before_step``'s keys, each with ``prefix``).
 
     ``spec`` is a prepared run (``tumblemc.model.run.prepare``), whose solver options the step
     uses; ``h`` the step (default ``spec.h``).

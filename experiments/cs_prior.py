@@ -1,6 +1,6 @@
 """Which prior for adaptive sampling's confidence sequence? Expected runs per cell, computed exactly.
 
-    python tools/cs_prior.py [--precision 0.1] [--cap 200] [--study RESULT.nc]
+    python experiments/cs_prior.py [--precision 0.1] [--cap 200] [--study RESULT.nc]
 
 A beta-binomial mixture is a confidence sequence whatever its prior (Ville's inequality,
 ``tumblemc/analysis/confseq.py``); the prior only decides where it is narrow, so how many

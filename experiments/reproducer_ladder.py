@@ -2,7 +2,7 @@
 
 Prints a markdown table: dt, progress ratio, failed steps, and the progress at the first
 landing (t = 0.40 s) and after its slide (t = 0.50 s), where the runs part.
-``python tools/reproducer_ladder.py`` runs the documented ladder (about 4 minutes);
+``python experiments/reproducer_ladder.py`` runs the documented ladder (about 4 minutes);
 ``--dt`` (repeatable) picks step sizes, each dividing the 4 s run.
 """
 

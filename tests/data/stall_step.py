@@ -9,7 +9,7 @@ the step is kept loose from a plain attempt (residual 2.2e-7, within ``accept_to
 docs/kernel_experiments.md, "A stall window for the smoothing continuation".
 
 The state, the warm start and the contact before the step are saved, so the test runs one
-step. Run from the repository root: ``python tools/stall_step.py``.
+step. Run from the repository root: ``python tests/data/stall_step.py``.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from tumblemc.model.solver_options import SolverOptions
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fast_landings import before_step  # noqa: E402
 
-OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "stall_step.npz"
+OUT = Path(__file__).resolve().parent / "stall_step.npz"
 RUN = {"shape": "curved", "preset": "aluminum", "incline_deg": 35.0, "duration_s": 2.0}
 STEPS = 16532  # steps taken before the stalled step
 

@@ -1,6 +1,6 @@
 """Compare an adaptive study with the fixed-n study of the same cells (issue 15, item 4): writes a markdown report.
 
-    python tools/adaptive_vs_fixed.py FIXED.nc ADAPTIVE.nc [--out docs/adaptive_default.md]
+    python experiments/adaptive_vs_fixed.py FIXED.nc ADAPTIVE.nc [--out docs/adaptive_default.md]
         [--fixed-minutes M] [--adaptive-minutes M]
 
 Per cell: runs kept, ``p_success`` of both, whether the adaptive estimate lies in the

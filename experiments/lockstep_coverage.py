@@ -1,6 +1,6 @@
 """How much of a study's work could run in lockstep? Issue 15, item 2, measured on the default study's runs.
 
-    python tools/lockstep_coverage.py [--runs 32] [--lanes 8,32] [--main-job results/default.nc]
+    python experiments/lockstep_coverage.py [--runs 32] [--lanes 8,32] [--main-job results/default.nc]
 
 Item 2 advances K runs of a cell together; a run that needs a fallback, a sub-step or
 another contact state takes that step on the scalar path and rejoins. Whatever the
@@ -25,7 +25,7 @@ Then a lockstep whose kernels make a plain lane's step ``s`` times cheaper (all 
 busy) gives at most ``1 / ((1 - c) + c / (s e))`` per run. The table prints the
 break-even ``s = 1 / e`` (below it lockstep is slower than the scalar path), the ``s``
 that the issue's 2.5x per run would need, the bound at ``s = 4`` (what straight-line
-kernel code gained in lockstep at K = 8, ``tools/lockstep_lu.py --block``), the bound of
+kernel code gained in lockstep at K = 8, ``experiments/lockstep_lu.py --block``), the bound of
 perfect K-wide vectors with no lane ever idle (``s = K``, ``e = 1``), and the ceiling
 ``1 / (1 - c)`` of an infinitely fast lockstep. The last two columns let a group wait only
 for its median plain lane, the lanes that need more finishing their step on the scalar
@@ -155,11 +155,11 @@ CLASS_OF = {
 #: run at 46d8347 (2026-11-29; ``--main-job FILE`` recomputes them from any main job's
 #: netCDF)
 MAIN_JOB_SHARES = {"paper": 0.440, "aluminum, not curved": 0.379, "curved, aluminum": 0.181}
-#: the best per-lane gain any lockstep kernel reached (``tools/lockstep_lu.py --block``:
+#: the best per-lane gain any lockstep kernel reached (``experiments/lockstep_lu.py --block``:
 #: straight-line code, flat layout, K = 8 and 16)
 BEST_KERNEL_GAIN = 6.6
 #: the best per-lane gain of a lockstep LU (copy, factor, solve) against today's sparse LU,
-#: by K (``tools/lockstep_lu.py``, two runs of 2026-11-29, the best form of the best
+#: by K (``experiments/lockstep_lu.py``, two runs of 2026-11-29, the best form of the best
 #: scenario: 1.49x at K = 8, the flat form; 2.27x at K = 32, the 2-D form); other K take
 #: the nearest K below
 BEST_LU_GAIN = {8: 1.49, 32: 2.27}
@@ -247,7 +247,7 @@ def main(argv: list[str] | None = None) -> str:
         raise SystemExit(f"--lanes {args.lanes}: every K must be at most --runs {args.runs}")
     extra = f" --duration {args.duration:g}" if args.duration is not None else ""
     lines = [
-        f"`python tools/lockstep_coverage.py --runs {args.runs} --lanes {args.lanes}{extra}`:",
+        f"`python experiments/lockstep_coverage.py --runs {args.runs} --lanes {args.lanes}{extra}`:",
         "",
         "| cell | K | coverage c | efficiency e | break-even s = 1/e | s for 2.5x per run | bound at s = 4 "
         "| s = K, e = 1 | ceiling 1/(1-c) | lanes above the median leave: c, e | their bound at s = 4 |",

@@ -17,7 +17,7 @@ And one slow landing that fails at a small step (a known solver gap, docs/solver
   converges at 1.5 dt.
 
 The state, the warm start and the contact before the step are saved, so the tests run one
-step each. Run from the repository root: ``python tools/fast_landings.py``. The committed file was
+step each. Run from the repository root: ``python tests/data/fast_landings.py``. The committed file was
 written on an earlier machine; on the machine of 2026-11-28 the tool (with the code before
 and after guesses 10 and 11 alike) writes other states for run 122, which slides at metres
 per second and takes a machine-dependent path (docs/solver_gaps.md), and ``small_step``
@@ -52,7 +52,7 @@ RUN_122 = {
 STEPS = {"refined": 37837, "kept": 61719}  # steps taken before the landing
 SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6}  # with tumblemc.claims.SNAP_HOP
 SMALL_STEP_STEPS = 80492
-OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "fast_landings.npz"
+OUT = Path(__file__).resolve().parent / "fast_landings.npz"
 
 
 def before_step(sp: Any, k: int) -> dict[str, Any]:

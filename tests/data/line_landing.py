@@ -22,7 +22,7 @@ by rounding), so the tool at a later commit writes another state.
 The state, the warm start and the contact before each step are saved; the other entries of
 the file (``edge_*``, ``impact_*``) are kept as they are.
 
-Run from the repository root: ``python tools/line_landing.py [NAME ...]`` (default: all three).
+Run from the repository root: ``python tests/data/line_landing.py [NAME ...]`` (default: all three).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from tumblemc.model.solver_options import SolverOptions
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fast_landings import before_step  # noqa: E402
 
-OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "landing_steps.npz"
+OUT = Path(__file__).resolve().parent / "landing_steps.npz"
 STEPS = {"line": 10221, "spin": 845, "pivot": 135227}  # steps taken before the landing
 PIVOT = {"shape": "cuboid", "duration_s": 1.0, "dt": 3.125e-6, **SNAP_HOP}
 

@@ -1,6 +1,6 @@
 """Does the Newton LU pay in lockstep? Issue 15, item 2, measured on the kernel the issue named.
 
-    python tools/lockstep_lu.py [--seconds 0.1] [--runs 8] [--lanes 1,8,16,32]
+    python experiments/lockstep_lu.py [--seconds 0.1] [--runs 8] [--lanes 1,8,16,32]
 
 Item 2 asks for K runs advanced together in structure-of-arrays form, so that the
 arithmetic of K runs goes through the vector units at once. The issue's own check put the
@@ -10,7 +10,7 @@ measures the LU part on real matrices before anyone rewrites the stepper:
 1. **Capture.** For each scenario, ``--runs`` runs (the friction coefficient and the
    magnetisation offset drawn per run, seed 5) are simulated for ``--seconds`` with the
    kernels as plain Python, and every Newton matrix is kept
-   (``tools/jacobian_patterns.py``'s capture). Lane ``l`` of a lockstep group takes the
+   (``experiments/jacobian_patterns.py``'s capture). Lane ``l`` of a lockstep group takes the
    ``m``-th matrix of run ``l`` (runs repeat, 37 matrices later, past ``--runs`` lanes),
    with a random right-hand side (seed 1).
 2. **Scalar path.** Per matrix, what ``newton.solve`` does today: ``copy_amax``, the sparse
@@ -1100,7 +1100,7 @@ def main(argv: list[str] | None = None) -> str:
                 f"| {b['flat']:.1f} | {b['scalar'] / b['flat']:.2f}x |"
             )
     lines = [
-        f"`python tools/lockstep_lu.py --seconds {args.seconds:g} --runs {args.runs} --lanes {args.lanes}` "
+        f"`python experiments/lockstep_lu.py --seconds {args.seconds:g} --runs {args.runs} --lanes {args.lanes}` "
         f"(medians of {args.rounds} rounds; ns per matrix: copy, factor and solve):",
         "",
         "| scenario | K | groups | ok flags equal | lockstep bit-identical | dense bit-identical "

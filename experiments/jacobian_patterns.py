@@ -1,6 +1,6 @@
 """How stable are the Newton matrices' sparsity patterns and pivot orders? Issue 15, item 1, measured.
 
-    python tools/jacobian_patterns.py [--seconds 1.0]
+    python experiments/jacobian_patterns.py [--seconds 1.0]
 
 Issue 15 proposes straight-line LU code generated per contact state: a fixed sparsity
 pattern and pivot order per frequent state, guarded, with the general LU as fallback. That
@@ -174,7 +174,7 @@ def main() -> None:
     n_train = train[0][0].shape[0]
     top_masks = [mask(p, n_train) for p in top]
     top_order = {p: collections.Counter(o for v, o, _ in train if key(v) == p).most_common(1)[0][0] for p in top}
-    print(f"Simulated {args.seconds:g} s per scenario (`python tools/jacobian_patterns.py --seconds {args.seconds:g}`).\n")
+    print(f"Simulated {args.seconds:g} s per scenario (`python experiments/jacobian_patterns.py --seconds {args.seconds:g}`).\n")
     print(
         "| scenario | n | factorisations | distinct patterns | (pattern, order) pairs | pivot orders | most common pattern "
         "| union nonzeros (with fill; multiply-adds) | one static order: guard passes "

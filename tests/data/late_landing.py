@@ -15,7 +15,7 @@ With ``SolverOptions(refine_halvings=0)`` the refinement is refused and the step
 with that work; by default the half-step is halved again (docs/solver_gaps.md, section 10).
 
 The state, the warm start and the contact before each step are saved (the second case with
-keys prefixed ``halve_``), so the test runs one step. Run from the repository root: ``python tools/late_landing.py``.
+keys prefixed ``halve_``), so the test runs one step. Run from the repository root: ``python tests/data/late_landing.py``.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from tumblemc.model.run import prepare, run_inputs
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fast_landings import before_step  # noqa: E402
 
-OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "late_landing.npz"
+OUT = Path(__file__).resolve().parent / "late_landing.npz"
 RUN = {
     "shape": "spiked",
     "preset": "aluminum",
