@@ -4,7 +4,7 @@
 
 Needs ``salib``, ``statsmodels`` and ``scikit-learn`` (a scratch venv is enough:
 ``pip install -e . salib statsmodels scikit-learn``). Prints the markdown tables of
-docs/libraries.md:
+docs/guide/libraries.md:
 
 - ``sobol``: Ishigami at N = 2^8 .. 2^14 (10 seeds each), error of S1/ST against the closed
   form (RMS over seeds), agreement of the two estimators on the same sample, wall time;

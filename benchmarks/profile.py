@@ -14,7 +14,7 @@ Examples::
 
 ``key=value`` pairs are keywords of ``tumblemc.simulate`` (values are Python literals;
 ``duration_s`` defaults to 2). Needs ``perf`` (with ``kernel.perf_event_paranoid`` <= 1, or
-root) and ``gdb`` on the PATH. Reported in docs/kernel_experiments.md ("Where the main
+root) and ``gdb`` on the PATH. Reported in docs/notes/kernel_experiments.md ("Where the main
 job's time goes").
 """
 

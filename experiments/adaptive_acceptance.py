@@ -11,10 +11,10 @@ before ``floor`` runs), for each pair asked. It reports the runs kept and how ma
 end outside the fixed Wilson interval.
 
 The cell counts come from a fixed study's result (``--fixed results/default.nc``) or, by
-default, from the per-cell table of ``docs/adaptive_default.md`` (the fixed default study
+default, from the per-cell table of ``docs/notes/adaptive_default.md`` (the fixed default study
 measured there, 200 runs per cell, P given to 3 decimals, so ``k = round(200 P)``).
 
-    python experiments/adaptive_acceptance.py [--fixed FIXED.nc] [--reps 400] [--out docs/adaptive_acceptance.md]
+    python experiments/adaptive_acceptance.py [--fixed FIXED.nc] [--reps 400] [--out docs/notes/adaptive_acceptance.md]
 """
 
 from __future__ import annotations
@@ -126,7 +126,7 @@ def report(k: np.ndarray, n: np.ndarray, rows: list[dict[str, Any]], source: str
         "P = 1.000 (0.000), outside that interval; only the whole 200 runs are sure to hold them. A",
         "rule that stops early in such cells, however it is tuned, puts some of them outside; a floor",
         "only makes it rarer, at the price of the runs it was meant to save. The reported confidence",
-        "sequence still holds the fixed estimate in those cells (docs/adaptive.md).",
+        "sequence still holds the fixed estimate in those cells (docs/guide/adaptive.md).",
         "",
     ]
     return "\n".join(lines)
@@ -134,16 +134,16 @@ def report(k: np.ndarray, n: np.ndarray, rows: list[dict[str, Any]], source: str
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--fixed", default=None, help="a fixed-n study's result (default: the table of docs/adaptive_default.md)")
+    ap.add_argument("--fixed", default=None, help="a fixed-n study's result (default: the table of docs/notes/adaptive_default.md)")
     ap.add_argument("--reps", type=int, default=400)
-    ap.add_argument("--out", default=str(ROOT / "docs" / "adaptive_acceptance.md"))
+    ap.add_argument("--out", default=str(ROOT / "docs" / "notes" / "adaptive_acceptance.md"))
     args = ap.parse_args()
     if args.fixed:
         k, n = cells_from_result(Path(args.fixed))
         source = args.fixed
     else:
-        k, n = cells_from_table(ROOT / "docs" / "adaptive_default.md")
-        source = "the fixed default study (docs/adaptive_default.md, 200 runs per cell)"
+        k, n = cells_from_table(ROOT / "docs" / "notes" / "adaptive_default.md")
+        source = "the fixed default study (docs/notes/adaptive_default.md, 200 runs per cell)"
     rows = [what_if(k, n, prec, floor, args.reps, seed=i) for i, (prec, floor) in enumerate(PAIRS)]
     rows += [
         what_if(k, n, prec, floor, args.reps, seed=i, method="confidence-sequence") for i, (prec, floor) in enumerate(PAIRS) if floor == 0

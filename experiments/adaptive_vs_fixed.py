@@ -1,6 +1,6 @@
 """Compare an adaptive study with the fixed-n study of the same cells (issue 15, item 4): writes a markdown report.
 
-    python experiments/adaptive_vs_fixed.py FIXED.nc ADAPTIVE.nc [--out docs/adaptive_default.md]
+    python experiments/adaptive_vs_fixed.py FIXED.nc ADAPTIVE.nc [--out docs/notes/adaptive_default.md]
         [--fixed-minutes M] [--adaptive-minutes M]
 
 Per cell: runs kept, ``p_success`` of both, whether the adaptive estimate lies in the
@@ -149,7 +149,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("fixed")
     ap.add_argument("adaptive")
-    ap.add_argument("--out", default="docs/adaptive_default.md")
+    ap.add_argument("--out", default="docs/notes/adaptive_default.md")
     ap.add_argument("--fixed-minutes", type=float, default=None)
     ap.add_argument("--adaptive-minutes", type=float, default=None)
     args = ap.parse_args()

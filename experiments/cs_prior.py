@@ -16,7 +16,7 @@ With ``--study`` it also applies each prior's rule to the outcomes of a fixed st
 cells' runs in sample order): the runs an adaptive study would keep and simulate.
 
 The default prior (``"ends"``: half uniform, half Beta(0.1, 0.1)) was chosen from this
-table on 2026-11-28 (docs/adaptive.md, "The prior").
+table on 2026-11-28 (docs/guide/adaptive.md, "The prior").
 """
 
 from __future__ import annotations

@@ -33,7 +33,7 @@ pivot positions whose row is the same in at least a share ``--fix`` of the train
 factorisations keep that row, and the other positions pivot by partial pivoting among the
 remaining rows (the rows that take turns); it reports how often the 0.1 guard passes.
 
-Reported in docs/kernel_experiments.md ("Straight-line LU per contact state").
+Reported in docs/notes/kernel_experiments.md ("Straight-line LU per contact state").
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ end). Lane ``l`` of group ``g`` is run ``g K + l``. At each step of a group:
   that of its previous step, and that mode is the group's most common plain mode (the
   lanes of one lockstep system share its shape: all in flight or all in contact);
 - a step's cost is modelled as ``1 + Newton iterations`` (the step's fixed work and one
-  residual, Jacobian and solve per iteration; the profile's split, docs/kernel_experiments.md);
+  residual, Jacobian and solve per iteration; the profile's split, docs/notes/kernel_experiments.md);
 - **coverage** ``c``: the plain lanes' share of the total cost;
 - **efficiency** ``e``: the plain lanes' cost over ``(plain lanes) x (1 + the largest
   plain lane's iterations)``: the group runs until its slowest plain lane converges.
@@ -44,7 +44,7 @@ study throughput against d5c7070 and the main job's minutes for:
 - the ceiling;
 - and the ``s`` that issue 15's study target (5x) needs.
 
-Reported in docs/kernel_experiments.md ("Lockstep LU") and docs/speed_targets.md.
+Reported in docs/notes/kernel_experiments.md ("Lockstep LU") and docs/notes/speed_targets.md.
 """
 
 from __future__ import annotations

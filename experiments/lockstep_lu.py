@@ -46,7 +46,7 @@ Every lane's solution is compared bit for bit with the scalar path's (the extra 
 the union are exact zeros: ``x - f * 0 == x``), and the times are medians of ``--rounds``
 rounds of ``--reps`` passes over every group, compiled first.
 
-Reported in docs/kernel_experiments.md ("Lockstep" and "The lockstep LU with each lane's
+Reported in docs/notes/kernel_experiments.md ("Lockstep" and "The lockstep LU with each lane's
 rows in place").
 """
 

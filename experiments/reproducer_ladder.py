@@ -1,4 +1,4 @@
-"""Issue 13's reproducer 1 (the snap hop) over a ladder of step sizes (docs/energy_ledger.md).
+"""Issue 13's reproducer 1 (the snap hop) over a ladder of step sizes (docs/notes/energy_ledger.md).
 
 Prints a markdown table: dt, progress ratio, failed steps, and the progress at the first
 landing (t = 0.40 s) and after its slide (t = 0.50 s), where the runs part.

@@ -119,7 +119,7 @@ def test_stop_count_is_the_first_prefix_and_skips_invalid_runs() -> None:
 @pytest.mark.parametrize("method", ["confidence-sequence-ends", "confidence-sequence"])
 @pytest.mark.parametrize("p", [0.0, 0.02, 0.1, 0.5, 0.9, 1.0])
 def test_coverage_at_the_stop_is_at_least_nominal(p: float, method: str) -> None:
-    """Small version of tools/adaptive_coverage.py (docs/adaptive.md): 4000 cells per p."""
+    """Small version of tools/adaptive_coverage.py (docs/guide/adaptive.md): 4000 cells per p."""
     table = interval_table(200, 0.95, method)
     res = simulate_coverage(p, 0.1, 200, reps=4000, seed=7, table=table)
     assert res["coverage"] >= 0.95
@@ -231,7 +231,7 @@ def test_interrupted_adaptive_study_resumes_to_the_same_file(
 
 @pytest.mark.slow
 def test_coverage_campaign_script_writes_its_report(tmp_path: Path) -> None:
-    """The small version of the campaign behind docs/adaptive_coverage.md."""
+    """The small version of the campaign behind docs/notes/adaptive_coverage.md."""
     import subprocess
     import sys
 

@@ -48,7 +48,7 @@ def test_simulated_and_closed_form_models_agree(tmp_path) -> None:
 @pytest.mark.slow
 def test_coverage_of_the_posterior() -> None:
     # 60 replicates: a 95% interval must hold the truth in at least 85% (P(fewer) about
-    # 0.2% at a true 95%); docs/calibration_coverage.md reports 400
+    # 0.2% at a true 95%); docs/notes/calibration_coverage.md reports 400
     cov = C.coverage(60, seed=7)
     assert np.all(cov["coverage"].values >= 0.85), cov["coverage"].values
     assert np.all(cov["coverage"].values <= 1.0)
@@ -113,7 +113,7 @@ def test_speed_calibration_with_the_simulator(tmp_path) -> None:
 
 @pytest.mark.slow
 def test_coverage_campaign_small_version() -> None:
-    # the issue-14 protocol (tools/calibration_coverage.py, docs/calibration_coverage.md) at
+    # the issue-14 protocol (tools/calibration_coverage.py, docs/notes/calibration_coverage.md) at
     # 20 replicates: simulated tilts at known parameters, 1 deg noise, 15 fields, 3 free;
     # at least 80% (P(fewer) < 0.5% at a true 95%)
     truth = {"F_elect": 2.5e-6, "offset_deg": 22.0, "adhesion_C": 5.0}

@@ -1,7 +1,7 @@
 """The paper's claims as slow tests (MODEL.md, "What the paper reports").
 
 Each is a plain run of the presets; nothing is tuned. The aluminum 30 deg climb is not
-reproduced by the model as specified (see docs/validation.md): that test is a strict
+reproduced by the model as specified (see docs/guide/validation.md): that test is a strict
 xfail recording the finding, so that a change which reproduces it is noticed.
 """
 
@@ -33,7 +33,7 @@ def test_aluminum_fails_45() -> None:
 
 
 @pytest.mark.xfail(
-    strict=True, reason="model as specified: mu=0.54 < tan 30 deg and ~0 adhesion in line contact -> slides (docs/validation.md)"
+    strict=True, reason="model as specified: mu=0.54 < tan 30 deg and ~0 adhesion in line contact -> slides (docs/guide/validation.md)"
 )
 def test_aluminum_climbs_30() -> None:
     _, s = _summary(preset="aluminum", incline_deg=30.0)

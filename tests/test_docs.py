@@ -3,9 +3,10 @@
 Every ``tumblemc ...`` line of a fenced ``bash``/``sh``/``console`` block in README.md,
 docs/ and data/README.md is parsed by :func:`tumblemc.cli.build_parser` (nothing is
 executed; ``bench`` passes its arguments on and is skipped), and each ``studies/*.toml``
-it names must exist. README's ``python`` blocks run in a temporary folder: the short ones
-in the fast tier, the one that runs a study in the slow tier, the SLURM one not at all (it
-needs a cluster).
+it names must exist. The ``python`` blocks of README.md and of the guides that take over
+from it (:data:`PYTHON_DOCS`) run in a temporary folder: the short ones in the fast tier,
+the one that runs a study in the slow tier, the SLURM one not at all (it needs a cluster).
+Every relative link of the markdown files, and every ``docs/...`` path they name, exists.
 """
 
 from __future__ import annotations
@@ -80,7 +81,9 @@ def test_documented_command_parses(where, argv):
             assert (ROOT / a).is_file(), f"{where}: {a} does not exist"
 
 
-README_PY = fenced_blocks(ROOT / "README.md", ("```python",))
+#: the files whose ``python`` blocks run: the README and the guides it points to for runs and studies
+PYTHON_DOCS = [ROOT / "README.md", ROOT / "docs" / "guide" / "runs.md", ROOT / "docs" / "guide" / "studies.md"]
+README_PY = [(path, start, code) for path in PYTHON_DOCS for start, code in fenced_blocks(path, ("```python",))]
 
 
 def _kind(code: str) -> str:
@@ -97,10 +100,10 @@ MARKS = {"fast": [], "slow": [pytest.mark.slow], "cluster": [pytest.mark.skip("n
     [
         pytest.param(
             code,
-            id=f"README.md:{start}",
+            id=f"{path.relative_to(ROOT)}:{start}",
             marks=MARKS[_kind(code)],
         )
-        for start, code in README_PY
+        for path, start, code in README_PY
     ],
 )
 def test_readme_python_runs(code, tmp_path, monkeypatch, capsys):
@@ -111,5 +114,37 @@ def test_readme_python_runs(code, tmp_path, monkeypatch, capsys):
 
 
 def test_readme_has_python_of_every_kind():
-    kinds = {_kind(code) for _, code in README_PY}
+    kinds = {_kind(code) for _, _, code in README_PY}
     assert kinds == {"fast", "slow", "cluster"}
+    assert any(path.name == "README.md" for path, _, _ in README_PY)
+
+
+#: every markdown page whose links are checked
+LINKED_DOCS = [
+    *DOC_FILES,
+    *(ROOT / p for p in ("CHANGELOG.md", "experiments/README.md", "studies/README.md", "notebooks/README.md")),
+]
+LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
+DOCS_PATH = re.compile(r"(?<![\w/.])(docs/[\w/.-]*\w)")
+
+
+def test_the_docs_links_resolve():
+    """Relative links (anchors aside) and ``docs/...`` paths named in the text point at files that exist."""
+    broken = []
+    for path in LINKED_DOCS:
+        text = path.read_text()
+        for m in LINK.finditer(text):
+            target = m.group(1).split("#")[0]
+            if target and not re.match(r"^[a-z]+:", target) and not (path.parent / target).exists():
+                broken.append(f"{path.relative_to(ROOT)}: link {m.group(1)}")
+        broken += [f"{path.relative_to(ROOT)}: path {m.group(1)}" for m in DOCS_PATH.finditer(text) if not (ROOT / m.group(1)).exists()]
+    assert not broken, "\n".join(broken)
+
+
+def test_the_docs_index_reaches_every_page():
+    """docs/index.md links every page of docs/guide and docs/notes (a page nobody links is lost)."""
+    index = (ROOT / "docs" / "index.md").read_text()
+    linked = {(ROOT / "docs" / m.group(1).split("#")[0]).resolve() for m in LINK.finditer(index)}
+    pages = [p for sub in ("guide", "notes") for p in sorted((ROOT / "docs" / sub).glob("*.md"))]
+    missing = [str(p.relative_to(ROOT)) for p in pages if p.resolve() not in linked]
+    assert not missing, f"docs/index.md does not link {missing}"

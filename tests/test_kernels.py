@@ -512,7 +512,7 @@ def test_lu_factor_row_test_factors_rows_of_disparate_scale(seed: int) -> None:
 
     The test against the largest entry alone calls it singular (every pivot of a unit row is
     below 1e-13 of the big row's entries: the Newton matrix of an impact, whose torsional
-    friction row is ``mu e_r lam_n``, docs/solver_gaps.md section 7). With the row test the
+    friction row is ``mu e_r lam_n``, docs/notes/solver_gaps.md section 7). With the row test the
     solution is numpy's, and a row that is another row to 1e-15 is still refused.
     """
     from tumblemc.kernels.newton import lu_factor, lu_solve

@@ -71,7 +71,7 @@ def test_steering_turns_the_heading_by_90_deg(preset: str) -> None:
 
 
 def test_step_out_agrees_with_an_independent_bisection() -> None:
-    # paper robot, 20 mT: it follows to about 238 Hz (docs/lab.md)
+    # paper robot, 20 mT: it follows to about 238 Hz (docs/guide/lab.md)
     so = lab.step_out([1.0, 10.0, 100.0, 200.0, 230.0, 260.0, 300.0])
     assert np.all(so["status"].values == 0)
     assert so["progress_ratio"].values[0] == pytest.approx(1.0, abs=0.05)

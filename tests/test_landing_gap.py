@@ -1,4 +1,4 @@
-"""Landings that no solve strategy solved (docs/solver_gaps.md, issue 13).
+"""Landings that no solve strategy solved (docs/notes/solver_gaps.md, issue 13).
 
 Two steps, saved with the state and warm start the time loop had before them, that every
 strategy and every halving used to fail (the best attempt was kept, a failed step):
@@ -21,10 +21,10 @@ strategy and every halving used to fail (the best attempt was kept, a failed ste
   sticking impact has a regular Newton matrix that ``lu_factor`` called singular, because
   the torsional friction row (``mu e_r lam_n``) is 3e6 times the unit rows at an impact
   force of 3,194 (scaled): solved since the pivot test looks at the pivot's own row
-  (docs/solver_gaps.md, section 7; also saved by ``tests/data/line_landing.py``).
+  (docs/notes/solver_gaps.md, section 7; also saved by ``tests/data/line_landing.py``).
 
 The slow tests run the whole reproducers. The ``impact`` state sits 1.3 cm from the origin,
-so the time loop now moves its origin first (``_recentre``, docs/solver_gaps.md, section 3).
+so the time loop now moves its origin first (``_recentre``, docs/notes/solver_gaps.md, section 3).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def test_saved_landing_step_converges(case: str) -> None:
         assert row[L.R_NIT] > 100  # still a hard step: the warm start alone does not solve it
     if case == "line":
         # energy made: 2.3e-3 m g x 0.1 mm, positive normal work that halves with the step (first
-        # order, as at every landing: docs/solver_gaps.md, section 4), below the landing
+        # order, as at every landing: docs/notes/solver_gaps.md, section 4), below the landing
         # refinement's threshold: landing_work x (m g x 0.1 mm + the field's work bound per step)
         assert row[L.R_LED + L.L_GAIN] <= spec.solver.landing_work * (1.0 + field_work_bound(spec.prm, spec.h))
     else:
@@ -98,8 +98,8 @@ def test_reproducer_1_has_no_failed_landing_at_dt_and_dt_over_4() -> None:
         s = tumblemc.summarize(ds)
         assert s["failed_steps"] == 0 and s["status"] == 0
         ratios.append(s["progress_ratio"])
-    # the hop is the model (docs/energy_ledger.md); how far dt and dt / 4 agree is measured in
-    # docs/energy_ledger.md: 23.7 and 20.1, 18% of the dt/4 ratio apart, above the issue's 10%
+    # the hop is the model (docs/notes/energy_ledger.md); how far dt and dt / 4 agree is measured in
+    # docs/notes/energy_ledger.md: 23.7 and 20.1, 18% of the dt/4 ratio apart, above the issue's 10%
     assert abs(ratios[1] - ratios[0]) <= 0.2 * abs(ratios[1])
 
 

@@ -109,7 +109,7 @@ def test_slow_landing_converges_at_a_longer_step() -> None:
 def test_slow_landing_at_a_small_step_converges_with_the_row_test() -> None:
     """The saved slow landing at dt = 5e-6 s converges at dt with the LU's row test (the default).
 
-    Its Newton matrices were called singular by the matrix-wide pivot test (docs/solver_gaps.md,
+    Its Newton matrices were called singular by the matrix-wide pivot test (docs/notes/solver_gaps.md,
     section 7), so that no strategy solved it at any depth.
     """
     (status, failed, _), row, _, _ = _step("small_step", SMALL_STEP, tumblemc.SolverOptions())

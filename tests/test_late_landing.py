@@ -8,7 +8,7 @@ impulse doing 16.6 energy scales of positive work (1.3e-6 J), the run's whole en
 The second (the curved robot at 17 m/s, same tool) lands with 2.0e-6 J of positive normal
 work at dt, and the first half-step of its refinement does not converge. The refinement
 was then refused and the step kept at dt; now that half-step is halved again, at most
-``SolverOptions.refine_halvings`` times (docs/solver_gaps.md, section 10).
+``SolverOptions.refine_halvings`` times (docs/notes/solver_gaps.md, section 10).
 """
 
 from __future__ import annotations

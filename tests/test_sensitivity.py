@@ -422,12 +422,12 @@ def test_robot_sobol_end_to_end_small() -> None:
 
 @pytest.mark.slow
 def test_the_salib_morris_example_in_the_docs_runs(monkeypatch: pytest.MonkeyPatch) -> None:
-    """docs/libraries.md's Morris example, as written (100 runs of the default study's cell)."""
+    """docs/guide/libraries.md's Morris example, as written (100 runs of the default study's cell)."""
     import re
 
     pytest.importorskip("SALib")
     root = Path(__file__).resolve().parents[1]
-    code = re.findall(r"```python\n(.*?)```", (root / "docs" / "libraries.md").read_text(), re.S)
+    code = re.findall(r"```python\n(.*?)```", (root / "docs" / "guide" / "libraries.md").read_text(), re.S)
     assert len(code) == 1
     monkeypatch.chdir(root)
     ns: dict[str, Any] = {}

@@ -4,7 +4,7 @@ The curved robot sliding down aluminum at 35 deg lifts off at t = 0.309 s in a s
 landing refinement's sub-steps stall within ``accept_tol`` in their plain attempts: with
 every strategy tried (``smooth_stalled = 1``, the rule before 2026-11-27) the step costs
 7,601 Newton iterations, most of them in smoothing attempts that end at the same stall or
-further from a solution. ``smooth_stalled = 0`` skips them (not the default: docs/kernel_experiments.md).
+further from a solution. ``smooth_stalled = 0`` skips them (not the default: docs/notes/kernel_experiments.md).
 """
 
 from __future__ import annotations

@@ -108,5 +108,5 @@ def test_higher_orders_agree_to_the_tolerance_and_save_iterations(climbs, w: int
 
 
 def test_the_default_is_the_cubic() -> None:
-    """3, not 4: docs/kernel_experiments.md, "Warm starts up to the quartic"."""
+    """3, not 4: docs/notes/kernel_experiments.md, "Warm starts up to the quartic"."""
     assert SolverOptions().warm_order == 3

@@ -1,6 +1,6 @@
-"""The coverage campaign of adaptive sampling (issue 15, item 4): writes docs/adaptive_coverage.md and its figure.
+"""The coverage campaign of adaptive sampling (issue 15, item 4): writes docs/notes/adaptive_coverage.md and its figure.
 
-    python tools/adaptive_coverage.py [--reps 20000] [--out docs/adaptive_coverage.md]
+    python tools/adaptive_coverage.py [--reps 20000] [--out docs/notes/adaptive_coverage.md]
 
 A study cell with the ``mc`` sampler is a sequence of independent Bernoulli(p) runs.
 For each ``p`` (the issue's six values, and a fine grid for the figure), ``reps`` cells are
@@ -157,7 +157,7 @@ def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: st
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=20_000)
-    ap.add_argument("--out", default="docs/adaptive_coverage.md")
+    ap.add_argument("--out", default="docs/notes/adaptive_coverage.md")
     args = ap.parse_args()
     out = Path(args.out)
     t0 = time.perf_counter()

@@ -1,16 +1,16 @@
-"""The calibration coverage campaign (issue 14): writes docs/calibration_coverage.md.
+"""The calibration coverage campaign (issue 14): writes docs/notes/calibration_coverage.md.
 
-    python tools/calibration_coverage.py [--reps 50] [--out docs/calibration_coverage.md]
+    python tools/calibration_coverage.py [--reps 50] [--out docs/notes/calibration_coverage.md]
 
 1. Synthetic bench data as the issue specifies: ``lab.static_tilt`` (the simulator) of the
    paper cuboid at known parameters (F_elect = 2.5e-6 N, offset_deg = 22, adhesion_C =
    5 N/m^2), 15 fields from 3 to 15 mT, plus 1 deg of normal noise; three free parameters
    (F_elect, offset_deg, adhesion_C). The simulator is deterministic, so the noise-free
    tilts are simulated once and each replicate draws new noise.
-2. Each replicate is calibrated with the closed-form model (docs/lab.md: it matches the
+2. Each replicate is calibrated with the closed-form model (docs/guide/lab.md: it matches the
    simulator to 0.002 deg); per parameter, the share of 95% intervals holding the truth.
 3. One replicate is also calibrated with the simulator as the forward model, timed.
-4. The two-parameter closed-form campaign of docs/calibration.md (400 replicates).
+4. The two-parameter closed-form campaign of docs/guide/calibration.md (400 replicates).
 
 CI runs a small version (tests/test_calibrate.py).
 """
@@ -35,7 +35,7 @@ FIELDS = [float(v) for v in np.linspace(3.0, 15.0, 15)]
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=50)
-    ap.add_argument("--out", default="docs/calibration_coverage.md")
+    ap.add_argument("--out", default="docs/notes/calibration_coverage.md")
     args = ap.parse_args()
     t0 = time.perf_counter()
     sim = lab.static_tilt(FIELDS, **TRUTH)

@@ -8,7 +8,7 @@ group's own over them: the view CF 2.7 gives a group (attributes apply to the gr
 they are defined and its descendants). ``--cf18`` (``Conventions`` CF-1.8, the newest
 version cfchecks 4.1.0 knows) and ``--char`` (netCDF-4 strings as char arrays, which it
 cannot read) show what is left once the checker's own limits are set aside
-(docs/studies.md, "The study file's metadata").
+(docs/guide/study_results.md, "The study file's metadata").
 """
 
 from __future__ import annotations

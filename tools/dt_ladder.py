@@ -1,4 +1,4 @@
-"""Runs of a study result over a ladder of step sizes, with perturbed twins (docs/studies.md, "Sensitivity twins").
+"""Runs of a study result over a ladder of step sizes, with perturbed twins (docs/guide/study_results.md, "Sensitivity twins").
 
 For each run: the progress ratio at ``dt / f`` for every ladder factor ``f`` (the study's
 dt times ``1 / f``), and at the study's dt with one parameter changed by ``+- rel``

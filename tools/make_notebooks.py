@@ -118,7 +118,7 @@ for r in rows:
         "md",
         """At 10 Hz on flat aluminum the larger hull perimeters of the spiked and curved shapes
 give them more distance per revolution; `tumblemc validate` reproduces the paper's whole
-shape comparison with longer runs (docs/validation.md).""",
+shape comparison with longer runs (docs/guide/validation.md).""",
     ),
 ]
 
@@ -368,7 +368,7 @@ preset (F_elect = 2.5 uN instead of 3.2, offset 22 deg instead of 27), seen thro
 static-tilt bench test with 0.5 deg of measurement noise. We fit both parameters to the
 data, keep the posterior with its correlation, and run the same robustness study twice:
 sampling the posterior, and with the preset's nominal values. Method and coverage:
-`docs/calibration.md`; the static-tilt test and its closed form: `docs/lab.md`.""",
+`docs/guide/calibration.md`; the static-tilt test and its closed form: `docs/guide/lab.md`.""",
     ),
     (
         "code",

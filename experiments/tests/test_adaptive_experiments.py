@@ -41,7 +41,7 @@ def test_acceptance_what_if_against_hand_counts() -> None:
     # the 199/200 cell stops at 21 runs when they miss the failure, else at 40 (39 of 40, inside Wilson)
     assert res["runs_kept"] == pytest.approx(2 * 21 + (179 / 200) * 21 + (21 / 200) * 40, abs=0.6)
     assert tool.what_if(k, n, 0.1, 200, reps=50)["mean_outside"] == 0.0
-    kt, nt = tool.cells_from_table(Path(__file__).resolve().parents[2] / "docs" / "adaptive_default.md")
+    kt, nt = tool.cells_from_table(Path(__file__).resolve().parents[2] / "docs" / "notes" / "adaptive_default.md")
     assert kt.size == 104 and np.all((kt >= 0) & (kt <= nt)) and 0 < np.count_nonzero((kt > 0) & (kt < nt)) < 104
 
 

@@ -15,7 +15,7 @@ from tests.tooling import load_tool
 
 @pytest.mark.slow
 def test_jacobian_pattern_survey_runs_small(tmp_path: Path) -> None:
-    """The small version of experiments/jacobian_patterns.py (docs/kernel_experiments.md): every scenario captured and tabled."""
+    """The small version of experiments/jacobian_patterns.py (docs/notes/kernel_experiments.md): every scenario captured and tabled."""
     import subprocess
     import sys
 
@@ -64,7 +64,7 @@ def test_lockstep_lu_experiment_solves_bit_for_bit_like_the_sparse_lu(seed: int)
     """experiments/lockstep_lu.py's lockstep and dense LUs solve like the sparse LU, bit for bit.
 
     Every lane gets the scalar sparse LU's solution, bit pattern for bit pattern
-    (docs/kernel_experiments.md, "Lockstep LU"), in each lockstep form (rows swapped, rows
+    (docs/notes/kernel_experiments.md, "Lockstep LU"), in each lockstep form (rows swapped, rows
     in place, lanes unrolled, pattern masks): with pivots tied in magnitude (small
     integer matrices; the test counts the tied steps), signed zeros in the matrices and
     the right-hand sides, a singular lane and a lane with a NaN.

@@ -11,7 +11,7 @@ from tests.tooling import load_tool
 
 
 def test_reproducer_ladder_small_version() -> None:
-    """The small version of experiments/reproducer_ladder.py (docs/energy_ledger.md): two coarse steps."""
+    """The small version of experiments/reproducer_ladder.py (docs/notes/energy_ledger.md): two coarse steps."""
     text = load_tool("reproducer_ladder").main(["--dt", "1e-4", "--dt", "5e-5"])
     rows = [r.split("|") for r in text.splitlines()[2:]]
     assert [float(r[1]) for r in rows] == [1e-4, 5e-5]

@@ -8,7 +8,7 @@ the step before two landings whose normal impulse does positive work:
 - ``kept``: t = 3.08595 s, 17.8 m/s, the quarter and eighth steps stall under every
   strategy, so the refinement gives up and the full step is kept.
 
-And one slow landing that fails at a small step (a known solver gap, docs/solver_gaps.md):
+And one slow landing that fails at a small step (a known solver gap, docs/notes/solver_gaps.md):
 
 - ``small_step``: issue 13's reproducer 1 (``tumblemc.claims.SNAP_HOP``, cuboid) at
   dt = 5e-6 s, t = 0.40246 s, the edge landing after the first hop at 0.17 m/s along
@@ -20,7 +20,7 @@ The state, the warm start and the contact before the step are saved, so the test
 step each. Run from the repository root: ``python tests/data/fast_landings.py``. The committed file was
 written on an earlier machine; on the machine of 2026-11-28 the tool (with the code before
 and after guesses 10 and 11 alike) writes other states for run 122, which slides at metres
-per second and takes a machine-dependent path (docs/solver_gaps.md), and ``small_step``
+per second and takes a machine-dependent path (docs/notes/solver_gaps.md), and ``small_step``
 differs by 1e-10: the tests keep the committed file.
 """
 

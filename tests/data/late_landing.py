@@ -6,13 +6,13 @@ with the default options up to the step before t = 3.45160 s. That step does not
 at dt and is halved; its second half is a landing whose normal impulse did 1.3e-6 J of
 positive work, 99.99% of the run's energy gain (``energy_gain_ratio`` 0.044, status
 ``energy_gain``), because the landing refinement (``SolverOptions.landing_work``) checked
-only a step's first sub-step. docs/solver_gaps.md, section 9.
+only a step's first sub-step. docs/notes/solver_gaps.md, section 9.
 
 Run 386 of the same class (the curved robot sliding at 17 m/s), integrated with the
 default options up to the step before t = 3.83800 s: a landing whose normal impulse does
 2.0e-6 J of positive work at dt, and whose refinement's first half-step does not converge.
 With ``SolverOptions(refine_halvings=0)`` the refinement is refused and the step kept at dt
-with that work; by default the half-step is halved again (docs/solver_gaps.md, section 10).
+with that work; by default the half-step is halved again (docs/notes/solver_gaps.md, section 10).
 
 The state, the warm start and the contact before each step are saved (the second case with
 keys prefixed ``halve_``), so the test runs one step. Run from the repository root: ``python tests/data/late_landing.py``.

@@ -4,7 +4,7 @@
 aluminum at 20 deg, magnetisation tilted 23.4 deg about (-0.457, 0.455, -0.764)) with
 ``SolverOptions(warm_order=4)``, integrated up to the step before t = 0.5111 s. There the
 robot rests on its long bottom edge, exactly level, while it rolls one end into the plane
-at 0.04 m/s (docs/solver_gaps.md, section 5): the step that guess 10 solves.
+at 0.04 m/s (docs/notes/solver_gaps.md, section 5): the step that guess 10 solves.
 
 ``spin``: run 110 of ``three_d_runs(n=400, seed=2)`` (aluminum, flat, 29.9 deg about
 (-0.650, 0.644, -0.404)), integrated up to the step before t = 0.0423 s, where the robot,
@@ -15,7 +15,7 @@ torsional friction stops the turn at once (``e_r`` = 0.1 m), the step that guess
 integrated up to the step before t = 0.42259 s: the edge that touched in the last step
 lands at 0.06 m/s while sliding at 0.14 m/s, and the impact sticks. Every strategy and
 every halving failed there until ``lu_factor`` tested its pivots against their own row
-(docs/solver_gaps.md, section 7). The committed entry was written with the code before that
+(docs/notes/solver_gaps.md, section 7). The committed entry was written with the code before that
 change (37292ac): since then the run takes another path (the row test changes other steps
 by rounding), so the tool at a later commit writes another state.
 

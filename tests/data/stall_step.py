@@ -6,7 +6,7 @@ preset="aluminum", incline_deg=35, duration_s=2)``, the default options with
 down to dt / 64; 119 of its smoothing attempts run to their 300-iteration limit without
 converging (42,244 Newton iterations in one step, 35,700 of them in those attempts), and
 the step is kept loose from a plain attempt (residual 2.2e-7, within ``accept_tol``).
-docs/kernel_experiments.md, "A stall window for the smoothing continuation".
+docs/notes/kernel_experiments.md, "A stall window for the smoothing continuation".
 
 The state, the warm start and the contact before the step are saved, so the test runs one
 step. Run from the repository root: ``python tests/data/stall_step.py``.
