@@ -11,7 +11,6 @@ the twin converges.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import numpy as np
