@@ -14,7 +14,7 @@ is checked against ``p`` (:func:`tumblemc.analysis.coverage.simulate_coverage`).
 - the control: the same rule with the fixed-n Wilson interval, which has no such guarantee
   under optional stopping.
 
-CI runs a small version (tests/test_adaptive.py).
+CI runs a small version (tests/study/test_adaptive.py).
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@
 3. One replicate is also calibrated with the simulator as the forward model, timed.
 4. The two-parameter closed-form campaign of docs/guide/calibration.md (400 replicates).
 
-CI runs a small version (tests/test_calibrate.py).
+CI runs a small version (tests/lab/test_calibrate.py).
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.test_engine import tiny
+from tests.study.test_engine import tiny
 from tests.tooling import load_tool
 from tumblemc.analysis.coverage import interval_table, simulate_coverage
 from tumblemc.study.engine import run_study

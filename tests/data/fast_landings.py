@@ -1,4 +1,4 @@
-"""Save the two fast landings of ``tests/test_landing_refine.py`` (``tests/data/fast_landings.npz``).
+"""Save the two fast landings of ``tests/kernels/test_landing_refine.py`` (``tests/data/fast_landings.npz``).
 
 Stress run 122 (``studies/stress.toml``: a cuboid on aluminum at 70 deg, 0.5 Hz, sliding
 at metres per second) integrated at the paper's fixed step (``landing_work = 0``) up to

@@ -1,4 +1,4 @@
-"""Save three landings of ``tests/test_landing_gap.py`` (``line_*``, ``spin_*``, ``pivot_*`` in ``tests/data/landing_steps.npz``).
+"""Save three landings of ``tests/kernels/test_landing_gap.py`` (``line_*``, ``spin_*``, ``pivot_*`` in ``tests/data/landing_steps.npz``).
 
 ``line``: stress campaign 3-D run 39 (``tumblemc.stress.three_d_runs``, seed 2026: the cuboid on
 aluminum at 20 deg, magnetisation tilted 23.4 deg about (-0.457, 0.455, -0.764)) with

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.test_engine import _to_toml, assert_same_result, tiny
+from tests.study.test_engine import _to_toml, assert_same_result, tiny
 from tumblemc.analysis.confseq import MIXTURES, cs_interval, first_possible_stop, half_width, stop_count
 from tumblemc.analysis.coverage import interval_table, simulate_coverage
 from tumblemc.analysis.maps import proportion_ci
@@ -235,7 +235,7 @@ def test_coverage_campaign_script_writes_its_report(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     out = tmp_path / "cov.md"
     subprocess.run([sys.executable, str(root / "tools" / "adaptive_coverage.py"), "--reps", "400", "--out", str(out)], check=True, cwd=root)
     text = out.read_text()

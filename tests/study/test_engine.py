@@ -31,7 +31,7 @@ from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import config_hash, config_to_json, identity_json, load_config
 from tumblemc.study.engine import run_study, study_status
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SMOKE = ROOT / "studies" / "smoke.toml"
 
 
@@ -124,7 +124,7 @@ def test_file_schema(reference: Path) -> None:
             assert "long_name" in var.attrs, name
             if var.dtype.kind in "fiu" and name not in ("quantile",):
                 assert "units" in var.attrs, name
-        assert "config_hash" in ds.attrs  # ties a group read alone to its study (tests/test_cf.py: the rest is at the root)
+        assert "config_hash" in ds.attrs  # ties a group read alone to its study (tests/study/test_cf.py: the rest is at the root)
     root = result_attrs(reference)
     for key in (
         "Conventions",

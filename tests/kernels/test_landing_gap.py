@@ -44,7 +44,7 @@ from tumblemc.kernels.stepper import Model
 from tumblemc.model.run import prepare, run_inputs
 from tumblemc.model.shapes.library import get_shape
 
-DATA = Path(__file__).parent / "data" / "landing_steps.npz"
+DATA = Path(__file__).resolve().parents[1] / "data" / "landing_steps.npz"
 OUT_OF_PLANE_2019_1 = {"offset_deg": 19.553717386076162, "offset_axis": (-0.8541623, -0.69975145, -1.01436414)}
 REPRO_1 = {**SNAP_HOP, "duration_s": 4.0}
 CASES = {

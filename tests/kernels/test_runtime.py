@@ -21,7 +21,7 @@ from tests.tooling import load_tool
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.stress import REPRODUCERS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # a stress run with loose steps, sub-steps and landing guesses (stress run 122), and a 3-D run
 # (issue 13's reproducer 2b): the paths that reach _impact_guess and the fallbacks
@@ -60,7 +60,7 @@ import importlib, json, sys
 sys.path.insert(0, sys.argv[1])
 from numba.core import types
 from numba.core.registry import CPUDispatcher
-from tests.test_runtime import _exercise
+from tests.kernels.test_runtime import _exercise
 _exercise()
 
 def has_array(t):

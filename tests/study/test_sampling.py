@@ -23,7 +23,7 @@ from tumblemc.study.config import StudyConfig, cells, config_hash, config_to_jso
 from tumblemc.study.design import design, params_for_run, run_kwargs
 from tumblemc.study.distributions import DEFAULT_UNCERTAIN, NEGLIGIBLE_MASS, UNCERTAIN_PARAMS
 
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
+STUDIES = Path(__file__).resolve().parents[2] / "studies"
 N_SE = 4.0  # tolerance of the statistical checks, in standard errors of the estimate
 KS_P_MIN = 1e-3  # smallest Kolmogorov-Smirnov p-value accepted (fixed seed)
 

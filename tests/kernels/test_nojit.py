@@ -24,7 +24,7 @@ import pytest
 
 from tests.tooling import load_tool
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DURATION_S = 0.03
 #: interpreter and compiled records agree to this fraction of each variable's largest value
 REL = 1e-6

@@ -24,7 +24,7 @@ from tumblemc.kernels.field import field_work_bound
 from tumblemc.kernels.stepper import Start
 from tumblemc.model.run import prepare, run_inputs
 
-DATA = Path(__file__).parent / "data" / "fast_landings.npz"
+DATA = Path(__file__).resolve().parents[1] / "data" / "fast_landings.npz"
 FAST_LANDINGS = load_tool("fast_landings")  # the runs the saved landings come from
 RUN_122 = FAST_LANDINGS.RUN_122
 SMALL_STEP = {**FAST_LANDINGS.SMALL_STEP, **SNAP_HOP}

@@ -23,7 +23,7 @@ from tumblemc.io import open_result, result_attrs
 from tumblemc.schema import MAPS_FROM_RUNS_ATTRS, STUDY_FILE_ATTRS
 from tumblemc.study.engine import run_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHA = re.compile(r"[0-9a-f]{40}")
 
 #: ACDD-1.3 highly recommended and the recommended ones a study can fill in truthfully

@@ -426,7 +426,7 @@ def test_the_salib_morris_example_in_the_docs_runs(monkeypatch: pytest.MonkeyPat
     import re
 
     pytest.importorskip("SALib")
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     code = re.findall(r"```python\n(.*?)```", (root / "docs" / "guide" / "libraries.md").read_text(), re.S)
     assert len(code) == 1
     monkeypatch.chdir(root)

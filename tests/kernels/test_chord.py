@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tests.test_kernels import make_problem
+from tests.kernels.test_kernels import make_problem
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import _lm_direction, make_workspace, solve
 from tumblemc.kernels.residual import Problem

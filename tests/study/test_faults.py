@@ -22,7 +22,7 @@ import pytest
 import xarray as xr
 
 import tumblemc
-from tests.test_engine import _to_toml, assert_same_result, tiny
+from tests.study.test_engine import _to_toml, assert_same_result, tiny
 from tumblemc.cli import main
 from tumblemc.io import ResultWriteError, StudyLock, StudyLockedError, StudyStateError, parts_dir
 from tumblemc.study.checks import ConfigError
@@ -271,7 +271,7 @@ def test_the_local_cluster_starts_with_port_8787_taken() -> None:
 def test_a_concurrent_cli_run_is_refused_while_the_first_finishes(tmp_path: Path) -> None:
     import time
 
-    from tests.test_engine import _cli
+    from tests.study.test_engine import _cli
 
     toml = tmp_path / "slow.toml"
     toml.write_text(_to_toml(tiny(freq_hz=1, samples=4, incline_deg=[0, 30])))  # 8 runs of 2 s

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from tests.naive import naive_residual
-from tests.test_kernels import make_problem
+from tests.kernels.test_kernels import make_problem
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import make_workspace, solve
 from tumblemc.kernels.residual import Problem

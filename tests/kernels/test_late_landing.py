@@ -24,7 +24,7 @@ from tumblemc.kernels import layout as L
 from tumblemc.kernels.field import field_work_bound
 from tumblemc.model.run import prepare, run_inputs
 
-DATA = Path(__file__).parent / "data" / "late_landing.npz"
+DATA = Path(__file__).resolve().parents[1] / "data" / "late_landing.npz"
 TOOL = load_tool("late_landing")
 
 

@@ -63,7 +63,7 @@ def test_three_d_runs_are_keyed_by_seed_and_tilted_out_of_plane() -> None:
 
 @pytest.mark.slow
 def test_stress_cli_quick_writes_the_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    repo = Path(__file__).resolve().parents[1]
+    repo = Path(__file__).resolve().parents[2]
     out = tmp_path / "report"
     code = main(
         [

@@ -19,7 +19,7 @@ from tests.tooling import load_tool, one_step
 from tumblemc.kernels import layout as L
 from tumblemc.model.run import prepare, run_inputs
 
-DATA = Path(__file__).parent / "data" / "stall_step.npz"
+DATA = Path(__file__).resolve().parents[1] / "data" / "stall_step.npz"
 RUN = load_tool("stall_step").RUN
 
 
