@@ -311,7 +311,7 @@ def snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
 
 
 @jit_alloc
-def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type: ignore[no-untyped-def]
+def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type: ignore[no-untyped-def]  # noqa: C901
     """Write the fresh guess ``guess`` (not ``G_WARM``) into ``z``, starting from the step's
     warm start ``zsave``, at the pose predicted from ``state`` over ``hc``. Returns False
     where the guess does not apply (no nearly flat face, no level edge, no impact): the

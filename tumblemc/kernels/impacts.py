@@ -27,7 +27,7 @@ from .layout import (
 
 
 @jit_alloc
-def impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore[no-untyped-def]
+def impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore[no-untyped-def]  # noqa: C901
     """Guesses 9, 10 and 11 for the contact block at ``off`` (``mk`` constraints, its ECP ``a1`` set): the rigid-body impact.
 
     Guess 9 (``half == 0``): the impulse ``P`` that brings the contact point's velocity
@@ -131,7 +131,7 @@ def impact_guess(z, off, mk, state, h, model, scr, edge, half):  # type: ignore[
 
 
 @jit_alloc
-def sticking_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # type: ignore[no-untyped-def]
+def sticking_impact(z, off, mk, state, h, model, scr, edge, half, iw, r, vc):  # type: ignore[no-untyped-def]  # noqa: C901
     """The impacts of guesses 10 and 11 (:func:`impact_guess`, ``half != 0``): ``iw`` the world inverse inertia
     (9, row-major), ``r`` the lever of the edge's middle, ``vc`` its velocity."""
     prm = model.prm

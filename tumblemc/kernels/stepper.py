@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ._jit import jit_alloc
+from ._jit import jit, jit_alloc
 from .decide import DECIDE_EVERY, climb_bound
 from .field import field_work_bound
 from .geometry import N_CG, N_QS, Geometry
@@ -183,24 +183,35 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
             record_row(rec, row, state, z, sv, led, lp.xoff)
             reset_counters(sv)
         if decide > 0 and step + 1 >= decide_step and step < n_steps - 1 and math.isnan(t_decided):
-            if step + 1 == decide_step:
-                for i in range(3):
-                    lp.xw[i] = state[i] + lp.xoff[i]
-            elif (step + 1 - decide_step) % DECIDE_EVERY == 0:
-                prog = 0.0
-                for i in range(3):
-                    scr.tmp[i] = state[i] + lp.xoff[i]
-                    prog += prm[P_U + i] * (scr.tmp[i] - lp.xw[i])
-                if prog + climb_bound(prm, scr.tmp, led, sv[SV_T], t_end, eref0) < decide_need:
-                    t_decided = sv[SV_T]
-                    if decide == 2:
-                        # the last record row holds the state at the decision (rows between: unwritten)
-                        record_row(rec, rec.shape[0] - 1, state, z, sv, led, lp.xoff)
-                        status = ST_DECIDED
-                        break
+            if decide_falls_short(step, decide_step, prm, state, led, sv, lp, scr.tmp, t_end, eref0, decide_need):
+                t_decided = sv[SV_T]
+                if decide == 2:
+                    # the last record row holds the state at the decision (rows between: unwritten)
+                    record_row(rec, rec.shape[0] - 1, state, z, sv, led, lp.xoff)
+                    status = ST_DECIDED
+                    break
     # the final state and the last solution's positions in the caller's frame
     recentre_undo(state, z, lp.xoff, geo.pstart)
     return status, failed_total, t_decided
+
+
+@jit
+def decide_falls_short(step, decide_step, prm, state, led, sv, lp, x, t_end, eref0, need):  # type: ignore[no-untyped-def]
+    """The early decision after step ``step`` (:mod:`.decide`): at the window's start keep
+    the position in ``lp.xw``; every ``DECIDE_EVERY`` steps after it, whether the uphill
+    progress since then plus :func:`~.decide.climb_bound` falls short of ``need``. ``x``
+    (3) receives the position in the caller's frame."""
+    if step + 1 == decide_step:
+        for i in range(3):
+            lp.xw[i] = state[i] + lp.xoff[i]
+        return False
+    if (step + 1 - decide_step) % DECIDE_EVERY != 0:
+        return False
+    prog = 0.0
+    for i in range(3):
+        x[i] = state[i] + lp.xoff[i]
+        prog += prm[P_U + i] * (x[i] - lp.xw[i])
+    return prog + climb_bound(prm, x, led, sv[SV_T], t_end, eref0) < need
 
 
 @jit_alloc

@@ -174,7 +174,7 @@ def predict_flight(state, hc, model, opts, buf, scr, sv):  # type: ignore[no-unt
 
 
 @jit_alloc
-def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, clear, rescued, depth):  # type: ignore[no-untyped-def]
+def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, clear, rescued, depth):  # type: ignore[no-untyped-def]  # noqa: C901
     """The strategy ladder (:data:`~.guesses.STRATEGIES`) from the warm start ``buf.zsave``.
 
     ``full``: a full-length step (the extrapolated warm start applies). Returns ``(st, res,
