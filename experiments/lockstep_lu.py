@@ -68,7 +68,7 @@ import numba as nb
 import numpy as np
 
 from tumblemc.kernels.geometry import N_QS, QS_JTH, QS_Q, quat_step, quat_to_rot
-from tumblemc.kernels.newton import PIVOT_REL, copy_amax, lu_factor, lu_solve
+from tumblemc.kernels.lu import PIVOT_REL, copy_amax, lu_factor, lu_solve
 
 HERE = Path(__file__).resolve().parent
 SCENARIOS = {
@@ -116,7 +116,7 @@ def soa_copy_amax(J, A, amax, n, K):
 
 
 @jit
-def soa_lu_factor(A, perm, amax, ok, n, K, lists, work):
+def soa_lu_factor(A, perm, amax, ok, n, K, lists, work):  # noqa: C901
     """Factor the K matrices ``A[:, :, l]`` in place.
 
     ``ok[l]`` is False where lane ``l``'s pivot falls below ``PIVOT_REL * amax[l]`` (the scalar path's global test; its row-relative
@@ -555,7 +555,7 @@ def soa_all(Js, bsv, X, okv, reps):
                 okv[m, lane] = ok[lane]
 
 
-def flat_lu(n: int, K: int) -> Any:
+def flat_lu(n: int, K: int) -> Any:  # noqa: C901
     """The lockstep LU on one flat array per group, ``A[(i * n + j) * K + lane]``.
 
     ``n`` and ``K`` are compile-time constants (the layout that lets LLVM vectorise
@@ -567,7 +567,7 @@ def flat_lu(n: int, K: int) -> Any:
     flat_copy_amax = flat_copier(n * n, K)
 
     @jit
-    def flat_factor(A, w, perm, lists):
+    def flat_factor(A, w, perm, lists):  # noqa: C901
         # w: [0:K] amax, [K:2K] best, [2K:3K] pidx (float), [3K:4K] inv, [4K:5K] ok, [5K:6K] f, [6K:6K+nK] U
         rows, nrows, cols, ncols = lists
         for lane in range(K):
@@ -734,7 +734,7 @@ def _inplace_harness(n: int, K: int, factor: Any, solve: Any, masks: bool) -> An
     return run_all
 
 
-def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
+def inplace_lu(n: int, K: int, masks: bool = False) -> Any:  # noqa: C901
     """The lockstep LU with every lane's rows left in place, as ``newton.lu_factor`` leaves them.
 
     :func:`flat_lu` swaps rows lane by lane (scalar moves, half its factorisation). Here
@@ -759,7 +759,7 @@ def inplace_lu(n: int, K: int, masks: bool = False) -> Any:
         raise ValueError(f"inplace_lu(masks=True) holds a row's pattern in an int64: n={n} must be at most 63")
 
     @jit
-    def factor(A, U, L, w, pos, row, lists, rm, cm):
+    def factor(A, U, L, w, pos, row, lists, rm, cm):  # noqa: C901
         # w: [0:K] amax, [K:2K] best, [2K:3K] best position, [3K:4K] inv, [4K:5K] ok, [5K:6K] pivot row;
         # with masks, rm[r]: the columns that may be nonzero in row r (any lane), cm[j]: the rows of column j
         rows, nrows, cols, ncols = lists

@@ -13,8 +13,8 @@ message``, exiting 1 if there is any:
 - a kernel imports xarray, dask, distributed or matplotlib;
 - analysis imports what runs a simulation (study, model.run, model.rows, the stepping
   kernels): an end-to-end sensitivity run is a study;
-- a module outside ``kernels/`` has more than :data:`MAX_LINES` lines (and is not in
-  :data:`LONG_MODULES`);
+- a module has more than :data:`MAX_LINES` lines and is not in :data:`LONG_MODULES` (the
+  ratchet: a module leaves the list once it is split, and none joins it);
 - a module has no layer in :data:`LAYERS`.
 
 The layers, lowest first (a module may import its own layer and those below)::
@@ -80,14 +80,19 @@ SIMULATES = (
     "tumblemc.model.rows",
     "tumblemc.kernels.batch",
     "tumblemc.kernels.stepper",
+    "tumblemc.kernels.step",
+    "tumblemc.kernels.substep",
     "tumblemc.kernels.newton",
     "tumblemc.kernels.residual",
 )
 
 MAX_LINES = 500
 
-#: modules outside kernels/ allowed over MAX_LINES: {path relative to the package: reason}
-LONG_MODULES: dict[str, str] = {}
+#: modules allowed over MAX_LINES, kernels included: {path relative to the package: reason}.
+#: A ratchet: shorten it, never lengthen it
+LONG_MODULES: dict[str, str] = {
+    "kernels/residual.py": "the residual and its Jacobian row by row (one formula each); to split by row block",
+}
 
 
 @dataclass(frozen=True)
@@ -219,8 +224,8 @@ def check_module(mod: Module, known: set[str], rel: str) -> list[tuple[int, str]
             and aliases[node.value.id] != mod.name
         ):
             found.append((node.lineno, f"{mod.name} uses the private name {node.attr} of {aliases[node.value.id]}"))
-    if own > 0 and mod.n_lines > MAX_LINES and rel not in LONG_MODULES:
-        found.append((1, f"{mod.name} has {mod.n_lines} lines (more than {MAX_LINES} outside kernels/): split it"))
+    if mod.n_lines > MAX_LINES and rel not in LONG_MODULES:
+        found.append((1, f"{mod.name} has {mod.n_lines} lines (more than {MAX_LINES}): split it"))
     return found
 
 

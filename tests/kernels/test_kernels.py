@@ -429,13 +429,13 @@ def test_kink_row_in_generalised_jacobian(kinds, seed, torque_end, theta):  # ty
 def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     """The snap guess lays the nearest face flat.
 
-    ``stepper._snap_flat`` (strategy 4): from the cuboid's rest pose tilted by ``tilt``
+    ``guesses.snap_flat`` (``G_SNAP_FLAT``): from the cuboid's rest pose tilted by ``tilt``
     about a horizontal axis, the angular velocity it returns lays the bottom face flat at
     the end of the step up to the quaternion update's own error (angle 2 atan(h|w|/2)
     instead of h|w|: third order); a face tilted beyond SNAP_MAX_TILT is refused.
     """
     from tumblemc.kernels.geometry import N_QS, QS_Q, quat_step, quat_to_rot
-    from tumblemc.kernels.stepper import SNAP_MAX_TILT, _snap_flat
+    from tumblemc.kernels.guesses import SNAP_MAX_TILT, snap_flat
     from tumblemc.model.frames import quat_to_matrix, rot_to_quat
     from tumblemc.model.run import prepare, run_inputs
 
@@ -460,12 +460,12 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     assert bottom_tilt(R0) == pytest.approx(tilt, rel=1e-6)
     w0 = np.zeros(3)
     w = np.zeros(3)
-    assert _snap_flat(R0.ravel(), spec.prm, spec.geo, h, w0, w)
+    assert snap_flat(R0.ravel(), spec.prm, spec.geo, h, w0, w)
     blk, R1 = np.zeros(N_QS), np.zeros(9)
     quat_step(rot_to_quat(R0), 0, w, 0, h, blk, 0)
     quat_to_rot(blk, QS_Q, R1, 0)
     assert bottom_tilt(R1.reshape(3, 3)) <= tilt**3 + 1e-14
-    assert not _snap_flat(tilted(1.5 * SNAP_MAX_TILT).ravel(), spec.prm, spec.geo, h, w0, w)
+    assert not snap_flat(tilted(1.5 * SNAP_MAX_TILT).ravel(), spec.prm, spec.geo, h, w0, w)
 
 
 # ---- the sparse LU of the Newton solver -------------------------------------------------
@@ -478,7 +478,7 @@ def test_lu_factor_and_solve_against_numpy(seed: int) -> None:
     ``lu_factor``/``lu_solve`` (rows left in place, nonzero lists) solve sparse systems
     like numpy, pivot ties included, and report exactly singular ones.
     """
-    from tumblemc.kernels.newton import lu_factor, lu_solve
+    from tumblemc.kernels.lu import lu_factor, lu_solve
 
     rng = np.random.default_rng(seed)
     n = 6 + seed % 23
@@ -515,7 +515,7 @@ def test_lu_factor_row_test_factors_rows_of_disparate_scale(seed: int) -> None:
     friction row is ``mu e_r lam_n``, docs/notes/solver_gaps.md section 7). With the row test the
     solution is numpy's, and a row that is another row to 1e-15 is still refused.
     """
-    from tumblemc.kernels.newton import lu_factor, lu_solve
+    from tumblemc.kernels.lu import lu_factor, lu_solve
 
     rng = np.random.default_rng(100 + seed)
     n = 6 + seed % 19
@@ -615,7 +615,7 @@ def test_copy_amax_is_the_copy_and_its_largest_magnitude(seed: int) -> None:
     included), or -1 with a NaN so that ``lu_factor`` scans (skipping NaN) itself; the LU
     with the given maximum is the LU with its own scan.
     """
-    from tumblemc.kernels.newton import copy_amax, lu_factor
+    from tumblemc.kernels.lu import copy_amax, lu_factor
 
     rng = np.random.default_rng(seed)
     n = 5 + seed
@@ -704,7 +704,7 @@ def test_lowest_point_against_twin(shape: str, seed: int) -> None:
     kept, ``inf`` for the others. Seeds 4 and 5: the body lies on its face (R = identity,
     support points tied in height), 100 length units from the origin.
     """
-    from tumblemc.kernels.stepper import FAST_HEIGHT_POINTS, lowest_point
+    from tumblemc.kernels.support import FAST_HEIGHT_POINTS, lowest_point
     from tumblemc.model.run import prepare, run_inputs
 
     spec = prepare(run_inputs(shape=shape, incline_deg=10.0 * (seed % 4), duration_s=0.001))
@@ -776,19 +776,19 @@ def test_workspace_fields_by_name() -> None:
 
 @pytest.mark.parametrize("seed", range(4))
 def test_recentre_moves_the_origin_along_the_plane_only(seed: int) -> None:
-    """``_recentre`` shifts x and every a1, a2 by the in-plane part of x, beyond RECENTRE_AT only.
+    """``recentre`` shifts x and every a1, a2 by the in-plane part of x, beyond RECENTRE_AT only.
 
     The residual is invariant under that translation: F at the shifted state and unknowns
     equals F at the original ones to the rounding of the original positions.
     """
-    from tumblemc.kernels.stepper import RECENTRE_AT, _recentre
+    from tumblemc.kernels.recording import RECENTRE_AT, recentre
 
     z, sc, prm, ctype, cdata, pstart = make_problem("two_pieces", seed, False, 0.3 + 0.3 * seed, 1e-2, 0.3)
     rng = np.random.default_rng(seed)
     state = np.zeros(13)
     state[0:3] = sc[L.S_X : L.S_X + 3]
     z_near, state_near = z.copy(), state.copy()
-    assert not _recentre(state, (z,), np.zeros(3), prm, pstart)
+    assert not recentre(state, z, np.zeros((0, z.size)), np.zeros(3), prm, pstart)
     assert np.array_equal(state, state_near) and np.array_equal(z, z_near)  # near the origin: untouched
     s = (rng.uniform(2, 5) * RECENTRE_AT) * (prm[L.P_T : L.P_T + 3] * rng.normal() + prm[L.P_O : L.P_O + 3] * rng.normal())
     state[0:3] += s
@@ -797,7 +797,7 @@ def test_recentre_moves_the_origin_along_the_plane_only(seed: int) -> None:
             z[blk[key] : blk[key] + 3] += s
     far_z, far_x = z.copy(), state[0:3].copy()
     xoff = np.zeros(3)
-    assert _recentre(state, (z,), xoff, prm, pstart)
+    assert recentre(state, z, np.zeros((0, z.size)), xoff, prm, pstart)
     assert np.allclose(state[0:3] + xoff, far_x, rtol=0, atol=1e-12 * RECENTRE_AT)
     assert abs(state[0:3] @ prm[L.P_T : L.P_T + 3]) < 1e-12 * RECENTRE_AT  # the in-plane part is gone ...
     assert abs(state[0:3] @ prm[L.P_O : L.P_O + 3]) < 1e-12 * RECENTRE_AT
@@ -823,8 +823,9 @@ def test_run_returns_positions_in_the_callers_frame_after_recentring() -> None:
     The run slides 15 cm (1500 length units) and shifts its origin many times; the record,
     the final state and the last solution's a1 agree.
     """
+    from tumblemc.kernels.recording import RECENTRE_AT
     from tumblemc.kernels.residual import n_unknowns as n_unk
-    from tumblemc.kernels.stepper import RECENTRE_AT, Clock, Model, Start, empty_record, make_buffers, run
+    from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
     from tumblemc.model.run import initial_contact, prepare, run_inputs
     from tumblemc.model.shapes.library import get_shape
 

@@ -24,7 +24,7 @@ strategy and every halving used to fail (the best attempt was kept, a failed ste
   (docs/notes/solver_gaps.md, section 7; also saved by ``tests/data/line_landing.py``).
 
 The slow tests run the whole reproducers. The ``impact`` state sits 1.3 cm from the origin,
-so the time loop now moves its origin first (``_recentre``, docs/notes/solver_gaps.md, section 3).
+so the time loop now moves its origin first (``recording.recentre``, docs/notes/solver_gaps.md, section 3).
 """
 
 from __future__ import annotations
@@ -144,8 +144,10 @@ def test_line_impact_guess_stops_the_whole_edge(mu: float | None) -> None:
     the tangential impulse lies in the friction cone.
     """
     from tumblemc.kernels.geometry import N_CG, N_QS
+    from tumblemc.kernels.impacts import impact_guess
     from tumblemc.kernels.layout import N_SC, S_FEXT
-    from tumblemc.kernels.stepper import Scratch, _impact_guess, _level_edge
+    from tumblemc.kernels.runtypes import Scratch
+    from tumblemc.kernels.support import level_edge
 
     spec, state, z = _line_step()
     prm = spec.prm.copy()
@@ -160,7 +162,7 @@ def test_line_impact_guess_stops_the_whole_edge(mu: float | None) -> None:
     scr.sc[S_FEXT : S_FEXT + 3] = fext
     R = _rot(state[3:7])
     edge = np.zeros(3)
-    half = _level_edge(state[0:3], R.ravel(), prm, geo, 0, 1e-3, edge)
+    half = level_edge(state[0:3], R.ravel(), prm, geo, 0, 1e-3, edge)
     # twin: the two lowest vertices of the cuboid, level at this pose
     verts = state[0:3] + geo.sup_pts[:8] @ R.T
     hts = verts @ prm[L.P_N : L.P_N + 3]
@@ -172,7 +174,7 @@ def test_line_impact_guess_stops_the_whole_edge(mu: float | None) -> None:
     z[6:9] = mid
     z[9:12] = mid
     h = spec.h
-    assert _impact_guess(z, 6, 6, state, h, Model(prm, geo), scr, edge, half)
+    assert impact_guess(z, 6, 6, state, h, Model(prm, geo), scr, edge, half)
     n = prm[L.P_N : L.P_N + 3]
     v_plus = z[0:3] - h * fext
     w_plus = z[3:6]
@@ -207,8 +209,9 @@ def test_point_impact_guess_sticks_in_torsion() -> None:
     wrench about the predicted centre of mass is the angular impulse the guess gave.
     """
     from tumblemc.kernels.geometry import N_CG, N_QS
+    from tumblemc.kernels.impacts import impact_guess
     from tumblemc.kernels.layout import N_SC, S_FEXT
-    from tumblemc.kernels.stepper import Scratch, _impact_guess
+    from tumblemc.kernels.runtypes import Scratch
 
     d = np.load(DATA)
     spec = prepare(run_inputs(get_shape("cuboid"), rotation="momentum", **CASES["spin"]))  # type: ignore[arg-type]
@@ -229,7 +232,7 @@ def test_point_impact_guess_sticks_in_torsion() -> None:
     z[9:12] = low
     h = spec.h
     assert abs(state[10:13] @ n) > 1.0  # turning fast about n (scaled; 426 rad/s)
-    assert _impact_guess(z, 6, 6, state, h, Model(prm, spec.geo), scr, np.zeros(3), -1.0)
+    assert impact_guess(z, 6, 6, state, h, Model(prm, spec.geo), scr, np.zeros(3), -1.0)
     assert np.array_equal(z[6:9], low)  # the ECP stays at the vertex
     v_plus = z[0:3] - h * fext
     w_plus = z[3:6]
@@ -247,13 +250,13 @@ def test_point_impact_guess_sticks_in_torsion() -> None:
 
 
 def test_level_edge_refuses_a_vertex_and_a_face() -> None:
-    """``_level_edge`` returns 0 unless exactly two support points are within tol of the lowest."""
-    from tumblemc.kernels.stepper import _level_edge
+    """``level_edge`` returns 0 unless exactly two support points are within tol of the lowest."""
+    from tumblemc.kernels.support import level_edge
 
     spec, state, _ = _line_step()
     edge = np.zeros(3)
     R = _rot(state[3:7])
-    assert _level_edge(state[0:3], R.ravel(), spec.prm, spec.geo, 0, 1e-3, edge) > 0.0
+    assert level_edge(state[0:3], R.ravel(), spec.prm, spec.geo, 0, 1e-3, edge) > 0.0
     # the same pose tilted about the plane normal's perpendicular: one vertex lowest
     tilt = np.cross(edge, spec.prm[L.P_N : L.P_N + 3])
     tilt /= np.linalg.norm(tilt)
@@ -261,16 +264,16 @@ def test_level_edge_refuses_a_vertex_and_a_face() -> None:
     K = np.array([[0, -tilt[2], tilt[1]], [tilt[2], 0, -tilt[0]], [-tilt[1], tilt[0], 0]])
     Rv = (np.eye(3) + s_ * K + (1 - c) * K @ K) @ R
     edge_v = np.zeros(3)
-    assert _level_edge(state[0:3], Rv.ravel(), spec.prm, spec.geo, 0, 1e-3, edge_v) == 0.0
+    assert level_edge(state[0:3], Rv.ravel(), spec.prm, spec.geo, 0, 1e-3, edge_v) == 0.0
     # lying flat on its bottom face (body z along the plane normal): four points tie
     n = spec.prm[L.P_N : L.P_N + 3]
     t = spec.prm[L.P_T : L.P_T + 3]
     flat = np.column_stack([t, np.cross(n, t), n])
-    assert _level_edge(np.zeros(3), flat.ravel(), spec.prm, spec.geo, 0, 1e-3, edge_v) == 0.0
+    assert level_edge(np.zeros(3), flat.ravel(), spec.prm, spec.geo, 0, 1e-3, edge_v) == 0.0
     # turned 0.5 deg about t: two points, the edge along t
     c, s_ = np.cos(0.0087), np.sin(0.0087)
     turn = np.array([[1, 0, 0], [0, c, -s_], [0, s_, c]])
-    assert _level_edge(np.zeros(3), (turn @ flat).ravel(), spec.prm, spec.geo, 0, 1e-3, edge_v) > 0.0
+    assert level_edge(np.zeros(3), (turn @ flat).ravel(), spec.prm, spec.geo, 0, 1e-3, edge_v) > 0.0
 
 
 @pytest.mark.slow

@@ -16,8 +16,8 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from tests.naive import naive_residual
 from tests.kernels.test_kernels import make_problem
+from tests.naive import naive_residual
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.newton import make_workspace, solve
 from tumblemc.kernels.residual import Problem

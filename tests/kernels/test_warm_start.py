@@ -1,6 +1,6 @@
 """The extrapolated warm start of smooth contact steps (``SolverOptions.warm_order``).
 
-Kernel level: the order chosen for the next step (``stepper._best_order``) against a NumPy
+Kernel level: the order chosen for the next step (``substep.best_order``) against a NumPy
 twin and on sequences where the answer is known. Run level: each higher order changes a
 climbing run only at the solver's tolerance and takes fewer iterations; ``warm_order =
 2`` keeps the quadratic start; the option's range is checked.
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tumblemc.kernels.stepper import _best_order
+from tumblemc.kernels.substep import best_order
 from tumblemc.model.solver_options import SolverOptions
 
 
@@ -50,7 +50,7 @@ def test_extrapolation_weights() -> None:
 def test_order_choice_matches_twin(seed: int, pmax: int) -> None:
     rng = np.random.default_rng(seed)
     z, *zs = [rng.normal(size=24) for _ in range(7)]
-    assert _best_order(z, tuple(zs), pmax) == twin(z, zs, pmax)
+    assert best_order(z, np.array(zs), pmax) == twin(z, zs, pmax)
 
 
 @pytest.mark.parametrize("degree", [3, 4, 5])
@@ -62,7 +62,7 @@ def test_a_polynomial_picks_an_order_that_reaches_its_degree(degree: int) -> Non
     rng = np.random.default_rng(degree)
     coef = rng.normal(size=(degree + 1, 24))
     z, *zs = sequence(coef, 0.3, 0.05)
-    assert _best_order(z, tuple(zs), 5) >= degree
+    assert best_order(z, np.array(zs), 5) >= degree
     assert np.abs(z - extrapolate(zs, degree - 1)).max() > 1e-8
 
 
@@ -77,7 +77,7 @@ def test_a_kink_in_the_history_keeps_the_order_low() -> None:
     zs[3] = zs[3] + 0.1  # z4 and older belong to the other branch
     zs[4] = zs[4] + 0.2
     zs[5] = zs[5] + 0.3
-    assert _best_order(z, tuple(zs), 5) == 2
+    assert best_order(z, np.array(zs), 5) == 2
 
 
 def test_warm_order_range() -> None:

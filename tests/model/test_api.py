@@ -190,7 +190,7 @@ def test_last_step_is_always_recorded() -> None:
 
 def test_field_direction_convention() -> None:
     from tumblemc.kernels import layout as L
-    from tumblemc.kernels.stepper import field_dir
+    from tumblemc.kernels.field import field_dir
     from tumblemc.model.frames import plane_frame
     from tumblemc.model.run import prepare, run_inputs
 
@@ -218,9 +218,10 @@ def test_torque_at_end_of_step_runs_and_tracks_no_slip() -> None:
 
 
 def test_contact_state_classification() -> None:
+    from tumblemc.kernels.contact import contact_state
     from tumblemc.kernels.geometry import N_CG, N_QS
     from tumblemc.kernels.layout import N_SC
-    from tumblemc.kernels.stepper import Scratch, _contact_state
+    from tumblemc.kernels.runtypes import Scratch
     from tumblemc.model.run import prepare, run_inputs
     from tumblemc.model.shapes.library import cuboid
 
@@ -236,21 +237,21 @@ def test_contact_state_classification() -> None:
         cg=np.zeros(N_CG), qs=np.zeros(N_QS), iters=np.zeros(3, np.int64), prob=None, prob6=None, hts=np.zeros(8),
     )  # fmt: skip
     z[16 + 4] = 1.0  # +z face alone: face contact with its area
-    mode, area, *_ = _contact_state(z, state, prm, geo, scr)
+    mode, area, *_ = contact_state(z, state, prm, geo, scr)
     assert mode == 2 and area == pytest.approx(areas[4])
     z[16 + 2] = 0.7  # +y end too: an edge, line contact with fraction x smaller area
-    mode, area, *_ = _contact_state(z, state, prm, geo, scr)
+    mode, area, *_ = contact_state(z, state, prm, geo, scr)
     assert mode == 1 and area == pytest.approx(0.1 * min(areas[4], areas[2]))
     # the strip rule (default): 5 um x the 400 um edge the two faces share, scaled by 1e-8 m^2
     strip = prepare(run_inputs(duration_s=0.001))
-    mode, area, *_ = _contact_state(z, state, strip.prm, strip.geo, scr)
+    mode, area, *_ = contact_state(z, state, strip.prm, strip.geo, scr)
     assert mode == 1 and area == pytest.approx(5e-6 * 400e-6 / 1e-8, rel=1e-12)
     z[16 + 0] = 0.5  # +x side too: a vertex, w^2
-    mode, area, *_ = _contact_state(z, state, strip.prm, strip.geo, scr)
+    mode, area, *_ = contact_state(z, state, strip.prm, strip.geo, scr)
     assert mode == 1 and area == pytest.approx((5e-6) ** 2 / 1e-8, rel=1e-12)
     z[16 + 0] = 0.0
     z[23] = 0.0  # no normal force: no contact
-    mode, area, *_ = _contact_state(z, state, prm, geo, scr)
+    mode, area, *_ = contact_state(z, state, prm, geo, scr)
     assert mode == 0 and area == 0.0
 
 

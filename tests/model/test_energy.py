@@ -167,7 +167,7 @@ def test_sliding_metres_down_an_incline_matches_backward_euler_in_closed_form() 
 
     Backward Euler with the constant deceleration ``a = g sin - mu (g cos + F_push / m)``
     gives ``v_N = N h a`` and a displacement ``h^2 a N (N + 1) / 2``. The run passes the
-    1 cm beyond which the stepper moves its origin along the plane (``_recentre``) hundreds
+    1 cm beyond which the stepper moves its origin along the plane (``recording.recentre``) hundreds
     of times; the record adds the shifts back, so the closed form holds to 1e-9.
     """
     dt = 5e-5

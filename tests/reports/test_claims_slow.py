@@ -187,7 +187,7 @@ def test_face_landing_within_a_short_step_is_solved(
     1.25e-5 s step while the robot pivots about its edge (for the curved robot, the face
     next to its arc). Every earlier strategy stalls at a negative multiplier of the other
     face of that edge, at each sub-step size; the snap guess (strategy 4,
-    stepper._snap_flat) solves it. Before that guess these runs stopped with a failed step
+    guesses.snap_flat) solves it. Before that guess these runs stopped with a failed step
     at ``failed_at_s``.
     """
     kw = dict(mu=mu, adhesion_C=adhesion_C, offset_deg=offset_deg, magnetization=magnetization)

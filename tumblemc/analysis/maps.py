@@ -182,7 +182,7 @@ def _sorted_mean(x: np.ndarray) -> float:
     return float(np.sum(np.sort(x)) / x.size) if x.size else np.nan
 
 
-def maps(
+def maps(  # noqa: C901
     runs: xr.Dataset,
     *,
     level: float = 0.95,

@@ -20,7 +20,10 @@ Every Numba function in :mod:`tumblemc.kernels` is compiled through :func:`jit` 
 - ``boundscheck`` follows Numba's default (off, or ``NUMBA_BOUNDSCHECK=1`` to debug).
 - **No reference counting** (``_nrt=False``, Numba's option for code compiled without
   its runtime) in every kernel but the few that allocate (the time loops ``run`` and
-  ``run_batch``, which own every array of a run, and ``_impact_guess``): with the runtime
+  ``run_batch``, which own every array of a run, the impact guesses, which solve small
+  systems with LAPACK, and the chain between them: ``one_step``, ``solve_substep``,
+  ``climb_ladder`` and ``build_guess``, since Numba compiles a callee with its caller's
+  runtime setting): with the runtime
   on, a compiled function takes an atomic reference on each array it receives or takes
   out of a tuple, and drops it on return, about 16% of a time step
   (docs/kernel_experiments.md, "Where a step goes now"). The arrays a kernel sees are

@@ -173,3 +173,30 @@ N_LED = 11
 # work bound + initial kinetic energy + potential energy released + m g x length unit) is
 # flagged (model/energy.py)
 ENERGY_GAIN_TOL = 0.01
+
+# ---- the time loop's scalar state (a float64[N_SV] record; runtypes.Frame.sv) ---------
+# Integers and flags are stored as float64 (exact). The first N_SNAP entries are what a
+# refined landing's restart restores, the first N_SNAP_STEP what a rescue pass restores.
+SV_T = 0  # time (scaled)
+SV_AREA = 1  # adhering area of the last committed (sub-)step's contact
+SV_PEEL = 2  # area released by the contact that still adheres (peeling)
+SV_PEEL_LEFT = 3  # work of adhesion left before the peeled area lets go
+SV_ANY_TOUCH = 4  # 1 if the last committed (sub-)step touched the plane
+SV_NCONT = 5  # consecutive full-length contact solves (the extrapolated warm start)
+SV_PEN = 6  # largest penetration in the record interval
+SV_RES = 7  # largest kept residual in the record interval
+SV_SUB = 8  # extra sub-steps in the record interval
+N_SNAP = 9
+SV_ORDER = 9  # the order of the next step's extrapolated warm start (O_WARM >= 3)
+N_SNAP_STEP = 10
+SV_NIT = 10  # Newton iterations in the record interval
+SV_FB = 11  # fallbacks in the record interval
+SV_FAIL = 12  # failed steps in the record interval
+SV_LOOSE = 13  # loose steps in the record interval
+SV_IMPULSE = 14  # steps kept by O_IMPULSE in the record interval
+SV_MODE = 15  # contact mode of the last committed (sub-)step (R_MODE)
+SV_LNSUM = 16  # its normal force
+SV_SLIP = 17  # its slip speed
+SV_ECP = 18  # the offset of its first touching block in z (-1: none)
+SV_ADH = 19  # the adhesion force it implies for the next step
+N_SV = 20

@@ -189,7 +189,7 @@ def _friction_jac(J, z, prm, s, h, idx, coef):  # type: ignore[no-untyped-def]
 
 
 @jit
-def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-def]
+def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-def]  # noqa: C901
     """Evaluate ``Phi(z)`` into ``F`` and, if ``want_J``, its Jacobian into ``J``.
 
     Parameters

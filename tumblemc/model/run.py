@@ -122,7 +122,7 @@ def _check_vector(name: str, vec: Any) -> tuple[float, float, float]:
     return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
-def run_inputs(
+def run_inputs(  # noqa: C901
     shape: str | Shape = "cuboid",
     preset: str | Params = "paper",
     incline_deg: float = 0.0,

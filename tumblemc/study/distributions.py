@@ -202,7 +202,7 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
         raise config_error(f"{key}.rel_high", a["rel_high"], "is not above rel_low", f"a number > rel_low = {a['rel_low']:g}")
 
 
-def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:
+def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # noqa: C901
     r = RANGES[u.param]
     a = dict(u.args)
     key = f"uncertain.{u.param}"

@@ -358,7 +358,7 @@ def run_study(
         return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
 
 
-def _run_locked(
+def _run_locked(  # noqa: C901
     cfg: StudyConfig, client: Any, path: Path, fresh: bool, progress: bool, batch_size: int | None, max_in_flight: int | None
 ) -> StudyResult:
     cjson, chash = config_to_json(cfg), config_hash(cfg)
