@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 import tumblemc
-from tumblemc.claims import SNAP_HOP
+from tumblemc.testing import SNAP_HOP
 
 LADDER = (1e-4, 8e-5, 5e-5, 4e-5, 2.5e-5, 2e-5, 1.25e-5, 1e-5, 6.25e-6, 5e-6, 3.125e-6)
 DURATION_S = 4.0

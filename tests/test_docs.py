@@ -70,8 +70,6 @@ def test_the_docs_hold_commands():
 
 @pytest.mark.parametrize(("where", "argv"), COMMANDS, ids=[w for w, _ in COMMANDS])
 def test_documented_command_parses(where, argv):
-    if argv[0] == "bench":
-        pytest.skip("bench passes its arguments to benchmarks/step_cost.py")
     try:
         build_parser().parse_args(argv)
     except SystemExit as e:  # argparse's way to refuse

@@ -73,6 +73,10 @@ BAD = {
     "viz/big.py": ("x = 1\n" * 501, "tumblemc.viz.big has 501 lines"),
     "kernels/long.py": ("x = 1\n" * 501, "tumblemc.kernels.long has 501 lines"),
     "plugins.py": ("\n", "tumblemc.plugins has no layer"),
+    "study/figure.py": (
+        "def f():\n    import matplotlib.pyplot\n",
+        "tumblemc.study.figure imports matplotlib: figures are drawn in tumblemc.viz only",
+    ),
 }
 
 
@@ -97,3 +101,12 @@ def test_the_script_exits_1_with_one_line_per_violation(tmp_path: Path) -> None:
     assert len(res.stdout.splitlines()) == len(BAD)
     ok = subprocess.run([sys.executable, str(SCRIPT), str(_package(tmp_path / "good", GOOD))], capture_output=True, text=True)
     assert ok.returncode == 0 and ok.stdout == ""
+
+
+def test_an_import_loop_is_reported_and_a_deferred_import_is_not(checker: ModuleType, tmp_path: Path) -> None:
+    a = "from tumblemc.study.b import x\n"
+    b_typing = "from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n    from tumblemc.study.a import y\nx = 1\n"
+    violations = checker.check(_package(tmp_path / "loop", {**GOOD, "study/a.py": a, "study/b.py": b_typing}))
+    assert len(violations) == 1 and "import loop among tumblemc.study.a, tumblemc.study.b" in violations[0], violations
+    b_deferred = "def f():\n    from tumblemc.study.a import y\n\n\nx = 1\n"
+    assert checker.check(_package(tmp_path / "deferred", {**GOOD, "study/a.py": a, "study/b.py": b_deferred})) == []

@@ -56,7 +56,8 @@ def test_notebook_executes(path: Path) -> None:
 def test_example_data_comes_from_its_config(name: str) -> None:
     """data/<name>.nc holds the study its config describes now (a config or schema change asks for it to be regenerated: data/README.md)."""
     from tumblemc.io import result_attrs
-    from tumblemc.study.config import config_hash, load_config
+    from tumblemc.study.config import load_config
+    from tumblemc.study.identity import config_hash
 
     stored = result_attrs(ROOT / "data" / f"{name}.nc")["config_hash"]
     assert stored == config_hash(load_config(ROOT / "studies" / f"{name}.toml")), f"regenerate data/{name}.nc (data/README.md)"

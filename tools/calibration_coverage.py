@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from tumblemc import lab
-from tumblemc.calibrate import BenchData, calibrate, coverage
+from tumblemc.lab.calibrate import BenchData, calibrate, coverage
 
 TRUTH: dict[str, Any] = {"F_elect": 2.5e-6, "offset_deg": 22.0, "adhesion_C": 5.0}
 FIELDS = [float(v) for v in np.linspace(3.0, 15.0, 15)]

@@ -10,16 +10,19 @@ message``, exiting 1 if there is any:
   ``TYPE_CHECKING`` imports count too);
 - a module imports another module's private name (``from m import _x``, ``m._x`` on an
   imported module) or a private module from outside its package;
-- a kernel imports xarray, dask, distributed or matplotlib;
+- a kernel imports xarray, dask, distributed or matplotlib; a module outside ``viz/``
+  imports matplotlib;
 - analysis imports what runs a simulation (study, model.run, model.rows, the stepping
   kernels): an end-to-end sensitivity run is a study;
 - a module has more than :data:`MAX_LINES` lines and is not in :data:`LONG_MODULES` (the
   ratchet: a module leaves the list once it is split, and none joins it);
-- a module has no layer in :data:`LAYERS`.
+- a module has no layer in :data:`LAYERS`;
+- modules import each other in a loop (module-level imports, ``if TYPE_CHECKING`` ones
+  included; an import inside a function is the deliberate way to defer one).
 
 The layers, lowest first (a module may import its own layer and those below)::
 
-    kernels <- schema, model, testing <- io, analysis <- study <- viz <- claims, stepcost <- cli
+    kernels <- schema, model, testing <- io, analysis <- study, lab <- viz <- reports <- cli
 """
 
 from __future__ import annotations
@@ -39,23 +42,17 @@ LAYERS: dict[str, int] = {
     "tumblemc.version": 0,
     "tumblemc.schema": 1,
     "tumblemc.model": 1,
-    "tumblemc.fields": 1,
     "tumblemc.testing": 1,
     # pure functions of Datasets and files
     "tumblemc.io": 2,
     "tumblemc.analysis": 2,
     "tumblemc.study": 3,
+    # bench tests and calibration: runs, summarised (figures in viz)
+    "tumblemc.lab": 3,
     "tumblemc.viz": 4,
     # run simulations and draw figures: only the command line may import them
-    "tumblemc.convergence": 5,
-    "tumblemc.claims": 5,
-    "tumblemc.stepcost": 5,
-    "tumblemc.stress": 5,
-    "tumblemc.lab": 5,
-    "tumblemc.calibrate": 5,
+    "tumblemc.reports": 5,
     "tumblemc.cli": 6,
-    "tumblemc.cli_lab": 6,
-    "tumblemc.cli_study": 6,
     "tumblemc.__main__": 6,
     "tumblemc": 6,
 }
@@ -66,7 +63,7 @@ LAYER_NAMES = {
     2: "io/analysis",
     3: "study",
     4: "viz",
-    5: "claims/stepcost",
+    5: "reports",
     6: "cli",
 }
 
@@ -197,6 +194,8 @@ def check_module(mod: Module, known: set[str], rel: str) -> list[tuple[int, str]
         if top != PACKAGE:
             if own == 0 and top in KERNEL_FORBIDDEN:
                 found.append((line, f"kernel {mod.name} imports {top}: kernels take and return arrays only"))
+            elif top == "matplotlib" and not within(mod.name, f"{PACKAGE}.viz"):
+                found.append((line, f"{mod.name} imports matplotlib: figures are drawn in {PACKAGE}.viz only"))
             continue
         theirs = layer_of(target)
         if theirs is not None and theirs > own:
@@ -229,6 +228,64 @@ def check_module(mod: Module, known: set[str], rel: str) -> list[tuple[int, str]
     return found
 
 
+def module_level_imports(mod: Module, known: set[str]) -> set[str]:
+    """The package's modules that ``mod`` imports outside function bodies."""
+    out: set[str] = set()
+
+    def visit(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+                continue
+            if isinstance(child, ast.Import):
+                out.update(a.name for a in child.names if a.name in known)
+            elif isinstance(child, ast.ImportFrom):
+                base = resolve(mod, child)
+                for alias in child.names:
+                    sub = f"{base}.{alias.name}"
+                    out.add(sub if sub in known else base)
+            visit(child)
+
+    visit(mod.tree)
+    return (out & known) - {mod.name}
+
+
+def import_loops(modules: dict[str, Module]) -> list[list[str]]:
+    """The import loops: strongly connected groups of modules (Tarjan), each sorted."""
+    known = set(modules)
+    graph = {name: sorted(module_level_imports(mod, known)) for name, mod in modules.items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    loops: list[list[str]] = []
+
+    def strongconnect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                strongconnect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                loops.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            strongconnect(v)
+    return sorted(loops)
+
+
 def check(package_dir: Path) -> list[str]:
     """Every violation in the package at ``package_dir``, as ``path:line: message`` lines."""
     modules = load(package_dir)
@@ -238,6 +295,9 @@ def check(package_dir: Path) -> list[str]:
         rel = mod.path.relative_to(package_dir).as_posix()
         shown = mod.path.relative_to(package_dir.parent).as_posix()
         lines += [f"{shown}:{line}: {msg}" for line, msg in sorted(set(check_module(mod, known, rel)))]
+    for group in import_loops(modules):
+        shown = modules[group[0]].path.relative_to(package_dir.parent).as_posix()
+        lines.append(f"{shown}:1: import loop among {', '.join(group)}: defer one import into a function or move the shared part")
     return lines
 
 

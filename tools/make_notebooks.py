@@ -378,7 +378,7 @@ from pathlib import Path
 from IPython.display import Image, display
 import numpy as np
 
-from tumblemc import calibrate as C
+from tumblemc.lab import calibrate as C
 from tumblemc import lab
 from tumblemc.io import open_result
 from tumblemc.study.engine import run_study

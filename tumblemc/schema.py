@@ -197,9 +197,24 @@ OUTCOMES: dict[str, type] = {
 }
 
 
+#: the outcome status of a run, the one table: ``(code, name, meaning)``. The flags of every
+#: status variable, a run's ``status_meanings`` attribute and the reports' words derive from it
+STATUS_TABLE: tuple[tuple[int, str, str], ...] = (
+    (KB.BATCH_OK, "ok", "finished, every step converged, the energy ledger within its tolerance"),
+    (KB.BATCH_FAILED_STEPS, "failed_steps", "a (sub-)step no solve strategy converged at the smallest sub-step: the best attempt was kept"),
+    (KB.BATCH_NONFINITE, "nonfinite", "the state became non-finite"),
+    (KB.BATCH_ERROR, "error", "the inputs were rejected"),
+    (KB.BATCH_ENERGY_GAIN, "energy_gain", "converged steps, but the energy ledger's numerical gain exceeds the tolerance"),
+)
+#: status code -> name, and code -> meaning
+STATUS_NAMES: dict[int, str] = {code: name for code, name, _ in STATUS_TABLE}
+STATUS_MEANINGS: dict[int, str] = {code: meaning for code, _, meaning in STATUS_TABLE}
+#: a single run's ``status_meanings`` attribute (a run on its own is never "error": its inputs raise)
+RUN_STATUS_MEANINGS = ", ".join(f"{code} {name}" for code, name, _ in STATUS_TABLE if code != KB.BATCH_ERROR)
+
 STATUS_FLAGS = {
-    "flag_values": np.array([KB.BATCH_OK, KB.BATCH_FAILED_STEPS, KB.BATCH_NONFINITE, KB.BATCH_ERROR, KB.BATCH_ENERGY_GAIN], dtype=np.int8),
-    "flag_meanings": "ok failed_steps nonfinite error energy_gain",
+    "flag_values": np.array([code for code, _, _ in STATUS_TABLE], dtype=np.int8),
+    "flag_meanings": " ".join(name for _, name, _ in STATUS_TABLE),
 }
 
 

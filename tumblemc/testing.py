@@ -10,6 +10,9 @@ Every function here has a known answer, so an estimator can be checked against i
 - :func:`box_failure` with :data:`BOX_FAILURE_BOX`: a binary outcome that is 1 exactly in
   a known axis-aligned box (the answer scenario discovery / PRIM should find), with its
   closed-form Sobol indices :func:`box_failure_indices` (a 0/1 benchmark).
+- :data:`SNAP_HOP` and :data:`REPRODUCERS`: physics scenarios that broke the solver once
+  (the snap hop: a flat aluminum cuboid thrown off by ten times the adhesion; two 3-D
+  tilts), shared by the solver's tests, the validation and the stress campaign.
 - :func:`synthetic_runs`: a study ``runs`` Dataset (the schema of
   :mod:`tumblemc.analysis`) whose outcome depends on ``mu`` only, with an all-success cell,
   a perfectly separated cell and invalid runs.
@@ -30,7 +33,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
-from typing import TypedDict
+from typing import Any, TypedDict
 
 import numpy as np
 import xarray as xr
@@ -310,4 +313,27 @@ __all__ = [
     "linear_additive",
     "linear_indices",
     "synthetic_runs",
+]
+
+
+#: the snap hop: the aluminum cuboid flat, ten times the adhesion, a strong slow field (its
+#: face lets go and the adhesion throws it up: simulate keywords)
+SNAP_HOP = {
+    "preset": "aluminum",
+    "incline_deg": 0.0,
+    "field_mT": 36.7659,
+    "freq_hz": 0.5,
+    "mu": 0.9557,
+    "adhesion_C": 243.2243,
+    "offset_deg": 27.4907,
+}
+
+#: the solver's reproducers: (name, simulate keywords), run by the stress campaign
+REPRODUCERS: list[tuple[str, dict[str, Any]]] = [
+    ("R1 snap hop", {"shape": "cuboid", "duration_s": 4.0, **SNAP_HOP}),
+    ("R2a tilt about z", {"preset": "aluminum", "incline_deg": 0.0, "duration_s": 2.0, "offset_deg": 30.0, "offset_axis": (0.0, 0.0, 1.0)}),
+    (
+        "R2b tilt about (1,0,1)",
+        {"preset": "aluminum", "incline_deg": 0.0, "duration_s": 2.0, "offset_deg": 27.0, "offset_axis": (0.7071, 0.0, 0.7071)},
+    ),
 ]

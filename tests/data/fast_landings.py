@@ -1,4 +1,4 @@
-"""Save the two fast landings of ``tests/kernels/test_landing_refine.py`` (``tests/data/fast_landings.npz``).
+"""Save the two fast landings of ``tests/kernels/test_hard_steps.py`` (``tests/data/fast_landings.npz``).
 
 Stress run 122 (``studies/stress.toml``: a cuboid on aluminum at 70 deg, 0.5 Hz, sliding
 at metres per second) integrated at the paper's fixed step (``landing_work = 0``) up to
@@ -10,7 +10,7 @@ the step before two landings whose normal impulse does positive work:
 
 And one slow landing that fails at a small step (a known solver gap, docs/notes/solver_gaps.md):
 
-- ``small_step``: issue 13's reproducer 1 (``tumblemc.claims.SNAP_HOP``, cuboid) at
+- ``small_step``: issue 13's reproducer 1 (``tumblemc.reports.claims.SNAP_HOP``, cuboid) at
   dt = 5e-6 s, t = 0.40246 s, the edge landing after the first hop at 0.17 m/s along
   the plane and 0.38 m/s down, spinning at 890 rad/s (the magnetic wobble of the flight):
   every strategy and every halving down to dt / 256 fails, while the same state
@@ -32,11 +32,11 @@ from typing import Any
 import numpy as np
 
 import tumblemc
-from tumblemc.claims import SNAP_HOP
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Clock, Model, Start, empty_record, make_buffers, run
 from tumblemc.model.run import initial_contact, prepare, run_inputs
+from tumblemc.testing import SNAP_HOP
 
 RUN_122 = {
     "shape": "cuboid",
@@ -50,7 +50,7 @@ RUN_122 = {
     "offset_deg": 26.94,
 }
 STEPS = {"refined": 37837, "kept": 61719}  # steps taken before the landing
-SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6}  # with tumblemc.claims.SNAP_HOP
+SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6}  # with tumblemc.reports.claims.SNAP_HOP
 SMALL_STEP_STEPS = 80492
 OUT = Path(__file__).resolve().parent / "fast_landings.npz"
 

@@ -1,4 +1,4 @@
-"""Save the late landings of ``tests/kernels/test_late_landing.py`` (``tests/data/late_landing.npz``).
+"""Save the late landings of ``tests/kernels/test_hard_steps.py`` (``tests/data/late_landing.npz``).
 
 Run 109 of the stress study's violent class (``studies/stress.toml`` restricted to
 aluminum, 70 deg and 0.5 Hz, seed 88001: the spiked robot sliding at 20 m/s), integrated

@@ -1,6 +1,6 @@
-"""Save three landings of ``tests/kernels/test_landing_gap.py`` (``line_*``, ``spin_*``, ``pivot_*`` in ``tests/data/landing_steps.npz``).
+"""Save three landings of ``tests/kernels/test_hard_steps.py`` (``line_*``, ``spin_*``, ``pivot_*`` in ``tests/data/landing_steps.npz``).
 
-``line``: stress campaign 3-D run 39 (``tumblemc.stress.three_d_runs``, seed 2026: the cuboid on
+``line``: stress campaign 3-D run 39 (``tumblemc.reports.stress.three_d_runs``, seed 2026: the cuboid on
 aluminum at 20 deg, magnetisation tilted 23.4 deg about (-0.457, 0.455, -0.764)) with
 ``SolverOptions(warm_order=4)``, integrated up to the step before t = 0.5111 s. There the
 robot rests on its long bottom edge, exactly level, while it rolls one end into the plane
@@ -11,7 +11,7 @@ at 0.04 m/s (docs/notes/solver_gaps.md, section 5): the step that guess 10 solve
 thrown up by the field, lands on a vertex while turning about the normal at 426 rad/s: the
 torsional friction stops the turn at once (``e_r`` = 0.1 m), the step that guess 11 solves.
 
-``pivot``: issue 13's reproducer 1 (``tumblemc.claims.SNAP_HOP``, cuboid) at dt = 3.125e-6 s,
+``pivot``: issue 13's reproducer 1 (``tumblemc.reports.claims.SNAP_HOP``, cuboid) at dt = 3.125e-6 s,
 integrated up to the step before t = 0.42259 s: the edge that touched in the last step
 lands at 0.06 m/s while sliding at 0.14 m/s, and the impact sticks. Every strategy and
 every halving failed there until ``lu_factor`` tested its pivots against their own row
@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from tumblemc.claims import SNAP_HOP
 from tumblemc.model.run import prepare, run_inputs
 from tumblemc.model.solver_options import SolverOptions
+from tumblemc.testing import SNAP_HOP
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fast_landings import before_step  # noqa: E402
@@ -46,7 +46,7 @@ PIVOT = {"shape": "cuboid", "duration_s": 1.0, "dt": 3.125e-6, **SNAP_HOP}
 
 
 def three_d_inputs(seed: int, k: int) -> dict[str, Any]:
-    """Inputs of run ``k`` of ``tumblemc.stress.three_d_runs(n, seed)`` (any ``n > k``): its draws replayed."""
+    """Inputs of run ``k`` of ``tumblemc.reports.stress.three_d_runs(n, seed)`` (any ``n > k``): its draws replayed."""
     rng = np.random.default_rng(seed)
     for _ in range(k + 1):
         axis = rng.normal(size=3)

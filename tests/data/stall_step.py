@@ -1,4 +1,4 @@
-"""Save the stalled smoothing step of ``tests/kernels/test_stall_window.py`` (``tests/data/stall_step.npz``).
+"""Save the stalled smoothing step of ``tests/kernels/test_hard_steps.py`` (``tests/data/stall_step.npz``).
 
 The curved robot sliding down aluminum at 35 deg (``tumblemc.simulate(shape="curved",
 preset="aluminum", incline_deg=35, duration_s=2)``, the default options with

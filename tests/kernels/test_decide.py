@@ -26,7 +26,8 @@ from tumblemc.model.fields import Rotating, Sequence
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.model.run import prepare, run_inputs
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import config_hash, config_to_json, identity_json, load_config
+from tumblemc.study.config import load_config
+from tumblemc.study.identity import config_hash, config_to_json, identity_json
 
 # a cuboid on aluminum at 40 deg from the default study that slides down (ratio about -380)
 SLIDER = {"preset": "aluminum", "incline_deg": 40.0, "field_mT": 20.0, "freq_hz": 1.0, "adhesion_C": 34.857,

@@ -1,4 +1,4 @@
-"""Calibration from bench data (tumblemc.calibrate, issue 14)."""
+"""Calibration from bench data (tumblemc.lab.calibrate, issue 14)."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from tumblemc import calibrate as C
 from tumblemc import lab
 from tumblemc.cli import main
+from tumblemc.lab import calibrate as C
 
 TRUTH = {"F_elect": 2.5e-6, "offset_deg": 22.0}
 FIELDS = np.arange(3.0, 15.5, 1.0)

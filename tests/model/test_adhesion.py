@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tumblemc.claims import SNAP_HOP
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import segment_lengths
+from tumblemc.testing import SNAP_HOP
 
 W = 5e-6  # the default line_contact_width
 C = tumblemc.PRESETS["aluminum"].adhesion_C

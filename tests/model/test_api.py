@@ -262,3 +262,22 @@ def test_public_api() -> None:
     for name in ("simulate", "summarize", "run_study", "load_config", "open_result", "shapes", "PRESETS", "SHAPES", "Params"):
         assert name in tumblemc.__all__ and getattr(tumblemc, name) is not None
     assert callable(tumblemc.shapes.extruded)
+
+
+def test_documented_submodules_are_attributes_imported_on_first_use() -> None:
+    """``tumblemc.lab``, ``tumblemc.fields``, ... after ``import tumblemc`` alone, without matplotlib or dask loaded."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, tumblemc\n"
+        "heavy = [m for m in ('matplotlib', 'dask', 'distributed') if m in sys.modules]\n"
+        "assert not heavy, heavy\n"
+        "for name, mod in tumblemc.SUBMODULES.items():\n"
+        "    assert getattr(tumblemc, name) is sys.modules[mod], name\n"
+        "    assert name in dir(tumblemc)\n"
+        "assert tumblemc.fields.Rotating is tumblemc.model.fields.Rotating\n"
+        "assert callable(tumblemc.lab.static_tilt)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr

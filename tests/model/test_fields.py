@@ -12,10 +12,9 @@ import pytest
 
 import tumblemc
 from tumblemc import SolverOptions
-from tumblemc.fields import Rotating, Sequence, Static, compile_program, field_at
 from tumblemc.kernels import layout as L
 from tumblemc.kernels.field import field_dir, field_work_bound, program_field
-from tumblemc.model.fields import peak_mT, revolutions, scale_program
+from tumblemc.model.fields import Rotating, Sequence, Static, compile_program, field_at, peak_mT, revolutions, scale_program
 from tumblemc.model.frames import plane_frame
 from tumblemc.model.run import prepare, run_inputs
 

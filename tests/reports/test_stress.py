@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 from tumblemc.cli import main
-from tumblemc.stress import invalid_table, study_summary, three_d_runs
+from tumblemc.reports.stress import invalid_table, study_summary, three_d_runs
 
 
 def _runs() -> xr.Dataset:

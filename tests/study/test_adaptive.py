@@ -18,8 +18,9 @@ from tumblemc.model.outcome import is_valid
 from tumblemc.study import engine
 from tumblemc.study.adaptive import run_adaptive, schedule
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import cells, config_hash, identity_json, load_config
+from tumblemc.study.config import cells, load_config
 from tumblemc.study.engine import run_study, study_status
+from tumblemc.study.identity import config_hash, identity_json
 
 
 def _slow_marginal(k: int, n: int, mixture: str) -> float:

@@ -28,8 +28,9 @@ from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.schema import TIMESTAMP_ATTRS
 from tumblemc.study import engine as eng
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import config_hash, config_to_json, identity_json, load_config
+from tumblemc.study.config import load_config
 from tumblemc.study.engine import run_study, study_status
+from tumblemc.study.identity import config_hash, config_to_json, identity_json
 
 ROOT = Path(__file__).resolve().parents[2]
 SMOKE = ROOT / "studies" / "smoke.toml"
@@ -171,7 +172,7 @@ def test_config_change_refused_then_fresh(reference: Path, tmp_path: Path) -> No
     part = tmp_path / "part.nc"
     parts_dir(part).mkdir()
     from tumblemc.io import ShardStore
-    from tumblemc.study.config import config_hash, config_to_json
+    from tumblemc.study.identity import config_hash, config_to_json
 
     c = load_config(tiny())
     ShardStore(part, config_to_json(c), config_hash(c)).open()
@@ -354,7 +355,7 @@ def test_interrupted_fresh_run_resumes_over_an_old_result(reference: Path, tmp_p
     of config B.
     """
     from tumblemc.io import ShardStore
-    from tumblemc.study.config import config_hash, config_to_json
+    from tumblemc.study.identity import config_hash, config_to_json
 
     out = tmp_path / "tiny.nc"
     out.write_bytes(reference.read_bytes())

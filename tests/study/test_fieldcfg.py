@@ -9,11 +9,12 @@ import pytest
 
 from tumblemc.model.fields import Rotating
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import config_to_json, identity_json, load_config
+from tumblemc.study.config import load_config
 from tumblemc.study.design import batch_row, design
 from tumblemc.study.distributions import POSTERIOR_SLOT, UNCERTAIN_PARAMS, mc_slot
 from tumblemc.study.engine import run_study
 from tumblemc.study.fieldcfg import turned_axis
+from tumblemc.study.identity import config_to_json, identity_json
 
 BASE = {
     "name": "f",

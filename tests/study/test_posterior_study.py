@@ -10,10 +10,11 @@ import pytest
 import xarray as xr
 
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import config_hash, load_config
+from tumblemc.study.config import load_config
 from tumblemc.study.design import design
 from tumblemc.study.distributions import POSTERIOR_SLOT, UNCERTAIN_PARAMS, mc_slot
 from tumblemc.study.engine import run_study
+from tumblemc.study.identity import config_hash
 
 
 def _posterior(path: Path, n: int = 50, seed: int = 0) -> Path:

@@ -19,9 +19,10 @@ from scipy import stats
 from tumblemc.model.params import PRESETS, RANGES, Params
 from tumblemc.model.run import run_inputs
 from tumblemc.study.checks import ConfigError
-from tumblemc.study.config import StudyConfig, cells, config_hash, config_to_json, load_config
+from tumblemc.study.config import StudyConfig, cells, load_config
 from tumblemc.study.design import design, params_for_run, run_kwargs
 from tumblemc.study.distributions import DEFAULT_UNCERTAIN, NEGLIGIBLE_MASS, UNCERTAIN_PARAMS
+from tumblemc.study.identity import config_hash, config_to_json
 
 STUDIES = Path(__file__).resolve().parents[2] / "studies"
 N_SE = 4.0  # tolerance of the statistical checks, in standard errors of the estimate

@@ -20,10 +20,10 @@ Every Numba function in :mod:`tumblemc.kernels` is compiled through :func:`jit` 
 - ``boundscheck`` follows Numba's default (off, or ``NUMBA_BOUNDSCHECK=1`` to debug).
 - **No reference counting** (``_nrt=False``, Numba's option for code compiled without
   its runtime) in every kernel but the few that allocate (the time loops ``run`` and
-  ``run_batch``, which own every array of a run, the impact guesses, which solve small
-  systems with LAPACK, and the chain between them: ``one_step``, ``solve_substep``,
-  ``climb_ladder`` and ``build_guess``, since Numba compiles a callee with its caller's
-  runtime setting): with the runtime
+  ``run_batch``, which own every array of a run, and the impact guesses, which solve
+  small systems with LAPACK; :func:`jit_alloc` asks for the runtime explicitly, since
+  Numba otherwise compiles a callee with its caller's setting, and the guesses are called
+  from kernels without it): with the runtime
   on, a compiled function takes an atomic reference on each array it receives or takes
   out of a tuple, and drops it on return, about 16% of a time step
   (docs/kernel_experiments.md, "Where a step goes now"). The arrays a kernel sees are
@@ -74,5 +74,9 @@ def jit(func):  # type: ignore[no-untyped-def]
 
 
 def jit_alloc(func):  # type: ignore[no-untyped-def]
-    """As :func:`jit`, with Numba's runtime (reference counting) on: for kernels that allocate arrays."""
-    return numba.njit(**JIT_OPTIONS)(func)
+    """As :func:`jit`, with Numba's runtime (reference counting) on: for kernels that allocate arrays.
+
+    ``_nrt=True`` is explicit: a kernel compiled without the runtime (``one_step``) calls the
+    impact guesses, and Numba would otherwise compile them with its caller's setting.
+    """
+    return numba.njit(**JIT_OPTIONS, _nrt=True)(func)

@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit, jit_alloc
+from ._jit import jit
 from .geometry import CG_G, QS_Q, constraint_eval, cross, quat_step, quat_to_rot
 from .impacts import impact_guess
 from .layout import (
@@ -310,7 +310,7 @@ def snap_edge(x, R, prm, geo, h, w, out):  # type: ignore[no-untyped-def]
     return True
 
 
-@jit_alloc
+@jit
 def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type: ignore[no-untyped-def]  # noqa: C901
     """Write the fresh guess ``guess`` (not ``G_WARM``) into ``z``, starting from the step's
     warm start ``zsave``, at the pose predicted from ``state`` over ``hc``. Returns False

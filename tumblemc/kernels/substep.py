@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit, jit_alloc
+from ._jit import jit
 from .contact import flight_clears, lift_off, norm3, plain_residual, set_flight
 from .geometry import QS_Q, quat_step, quat_to_rot
 from .guesses import (
@@ -173,7 +173,7 @@ def predict_flight(state, hc, model, opts, buf, scr, sv):  # type: ignore[no-unt
     return clear, flight, res6
 
 
-@jit_alloc
+@jit
 def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, clear, rescued, depth):  # type: ignore[no-untyped-def]  # noqa: C901
     """The strategy ladder (:data:`~.guesses.STRATEGIES`) from the warm start ``buf.zsave``.
 
@@ -268,7 +268,7 @@ def contact_warm_start(state, hc, model, buf, scr, touching):  # type: ignore[no
         off += B_FIXED + mk
 
 
-@jit_alloc
+@jit
 def solve_substep(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, rescued, depth):  # type: ignore[no-untyped-def]
     """Solve the (sub-)step ``hc`` from ``state`` (step data in ``scr.sc``, warm start in ``buf.z``).
 

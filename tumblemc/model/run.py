@@ -34,7 +34,7 @@ from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.model.solver_options import SolverOptions
 from tumblemc.model.units import LENGTH_M, Units
-from tumblemc.schema import annotate
+from tumblemc.schema import RUN_STATUS_MEANINGS, annotate
 from tumblemc.version import __version__
 
 #: default time step, s: the largest dt of the convergence study (docs/validation) whose
@@ -149,7 +149,7 @@ def run_inputs(  # noqa: C901
     records only the rows it measures, bounded by the study's budget instead).
 
     Parameters are those of :func:`simulate`. The duration is either ``duration_s``
-    (default 2 s, or a :class:`~tumblemc.fields.Sequence`'s total) or ``periods`` field
+    (default 2 s, or a :class:`~tumblemc.model.fields.Sequence`'s total) or ``periods`` field
     periods (``periods / freq_hz``, which needs ``freq_hz > 0``), not both. ``field`` (a
     field program) and ``field_mT``/``freq_hz`` (the paper's field, default 20 mT, 1 Hz)
     exclude each other; for a program, ``field_mT`` and ``freq_hz`` of the result are its
@@ -174,7 +174,7 @@ def run_inputs(  # noqa: C901
     program = None
     if field is not None:
         if not isinstance(field, (Static, Rotating, Sequence)):
-            raise ValueError(f"field={field!r} is not allowed (allowed: tumblemc.fields.Static, Rotating or Sequence)")
+            raise ValueError(f"field={field!r} is not allowed (allowed: tumblemc.model.fields.Static, Rotating or Sequence)")
         if field_mT is not None or freq_hz is not None:
             raise ValueError(
                 f"field={describe(field)!r} and field_mT={field_mT!r}, freq_hz={freq_hz!r} are both given "
@@ -390,7 +390,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "ideal_speed": spec.shape.hull_perimeter * spec.freq_hz,
             # outcome status (schema.STATUS_FLAGS): a run with a failed step is not "ok"
             "status": run_status(int(status), int(failed), energy_gain_ratio=energy["energy_gain_ratio"]),
-            "status_meanings": "0 ok, 1 failed_steps, 2 nonfinite, 4 energy_gain",
+            "status_meanings": RUN_STATUS_MEANINGS,
             **energy,
             "energy_gain_tolerance": ENERGY_GAIN_TOL,
             "kernel_status": int(status),
@@ -436,7 +436,7 @@ def simulate(
     field_mT, freq_hz : float, optional
         The paper's field: magnitude (mT, default 20) and frequency (Hz, default 1),
         rotating about world x from the uphill direction; 0 mT switches the field off.
-    field : tumblemc.fields.Static, Rotating or Sequence, optional
+    field : tumblemc.model.fields.Static, Rotating or Sequence, optional
         A field program instead (MODEL.md, "Field programs"): static, rotating about any
         axis, with a cone or bias, or a sequence of segments. ``Rotating(mT, hz)`` is the
         paper's field (same physics; the shorthand runs the kernel's original code).

@@ -32,38 +32,11 @@ import xarray as xr
 from tumblemc.analysis.confseq import CS_METHODS, first_possible_stop, stop_count
 from tumblemc.io import StudyStateError
 from tumblemc.model.outcome import is_valid
-from tumblemc.study.checks import ConfigError
 
 if TYPE_CHECKING:
     from tumblemc.study.config import StudyConfig
 
 GROWTH = 1.5  # each round brings open cells to 1.5x the runs of the last one
-
-
-def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: int, level: float) -> None:
-    """The config keys ``precision`` needs, checked (a :class:`ConfigError` naming the one that is not)."""
-    if mode != "grid":
-        raise ConfigError("precision", f"precision is for mode = 'grid' studies, not mode = {mode!r} (allowed: leave precision out)")
-    if sampler != "mc":
-        raise ConfigError(
-            "sampler",
-            f"sampler={sampler!r} with precision: the stopping rule needs independent runs whose draws do not depend on "
-            "how many are drawn (allowed: 'mc')",
-        )
-    if ci not in CS_METHODS:
-        raise ConfigError(
-            "ci",
-            f"ci={ci!r} with precision: a fixed-n interval does not cover at a data-dependent stop "
-            "(allowed: 'confidence-sequence-ends', the default with precision, or 'confidence-sequence')",
-        )
-    least = first_possible_stop(precision, level, 10**6, CS_METHODS[ci])
-    if samples < least:
-        raise ConfigError(
-            "samples",
-            f"samples={samples} with precision={precision:g}: no cell can reach that precision in fewer than {least} runs "
-            f"(the narrowest {level:.0%} interval, every run one verdict), so every cell would run to samples "
-            f"(allowed: samples >= {least}, or a larger precision)",
-        )
 
 
 def rounds(first: int, cap: int) -> list[int]:
@@ -210,4 +183,4 @@ def restrict(
     return keep, main_u, check_u, local
 
 
-__all__ = ["GROWTH", "AdaptiveResult", "adaptive_attrs", "check_adaptive", "restrict", "run_adaptive", "schedule"]
+__all__ = ["GROWTH", "AdaptiveResult", "adaptive_attrs", "restrict", "run_adaptive", "schedule"]

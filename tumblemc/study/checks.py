@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from tumblemc.analysis.confseq import CS_METHODS, first_possible_stop
 from tumblemc.model.params import describe_interval
 
 
@@ -174,3 +175,29 @@ def check_range_table(key: str, value: Mapping[str, Any], lo: float, hi: float) 
         raise config_error(f"{key}.step", value["step"], f"gives {n} values", f"at most {MAX_GRID_VALUES} values")
     # rounding makes 0.1-steps land on 0.3, not 0.30000000000000004 (cell ids use repr)
     return tuple(round(start + i * step, 10) + 0.0 for i in range(n))
+
+
+def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: int, level: float) -> None:
+    """The config keys ``precision`` needs, checked (a :class:`ConfigError` naming the one that is not)."""
+    if mode != "grid":
+        raise ConfigError("precision", f"precision is for mode = 'grid' studies, not mode = {mode!r} (allowed: leave precision out)")
+    if sampler != "mc":
+        raise ConfigError(
+            "sampler",
+            f"sampler={sampler!r} with precision: the stopping rule needs independent runs whose draws do not depend on "
+            "how many are drawn (allowed: 'mc')",
+        )
+    if ci not in CS_METHODS:
+        raise ConfigError(
+            "ci",
+            f"ci={ci!r} with precision: a fixed-n interval does not cover at a data-dependent stop "
+            "(allowed: 'confidence-sequence-ends', the default with precision, or 'confidence-sequence')",
+        )
+    least = first_possible_stop(precision, level, 10**6, CS_METHODS[ci])
+    if samples < least:
+        raise ConfigError(
+            "samples",
+            f"samples={samples} with precision={precision:g}: no cell can reach that precision in fewer than {least} runs "
+            f"(the narrowest {level:.0%} interval, every run one verdict), so every cell would run to samples "
+            f"(allowed: samples >= {least}, or a larger precision)",
+        )

@@ -155,11 +155,11 @@ from tumblemc.model.params import PRESETS, RANGES
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
-from tumblemc.study.adaptive import check_adaptive
 from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget
 from tumblemc.study.checkcfg import CheckConfig, parse_check
 from tumblemc.study.checks import (
     ConfigError,
+    check_adaptive,
     check_choice,
     check_int,
     check_no_unknown,
@@ -474,6 +474,3 @@ def cells(config: StudyConfig) -> list[dict[str, Any]]:
     One dict per cell, keyed by ``config.cell_dims``.
     """
     return _MODES[config.mode].cells(config)
-
-
-from tumblemc.study.identity import ADDED_KEYS, config_hash, config_to_json, identity_json  # noqa: E402, F401  (re-exported)

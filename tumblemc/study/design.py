@@ -42,9 +42,10 @@ from tumblemc.model.rows import RunRow, TimeGrid
 from tumblemc.model.run import DEFAULT_DT
 from tumblemc.schema import COORD_ATTRS, sampled_name
 from tumblemc.study.checks import is_number
-from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells, config_hash, config_to_json
+from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells
 from tumblemc.study.distributions import POSTERIOR_SLOT, U_EPS, UNCERTAIN_PARAMS, ParamDistribution, mc_slot, nominal_value
 from tumblemc.study.fieldcfg import AXIS_ERRORS, program
+from tumblemc.study.identity import config_hash, config_to_json
 
 
 def _canonical_cell(cell: Mapping[str, Any]) -> str:

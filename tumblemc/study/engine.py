@@ -52,9 +52,10 @@ from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_
 from tumblemc.study.adaptive import AdaptiveResult, adaptive_attrs, restrict, run_adaptive
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
-from tumblemc.study.config import StudyConfig, config_hash, config_to_json, load_config
+from tumblemc.study.config import StudyConfig, load_config
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
 from tumblemc.study.design import batch_row, check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
+from tumblemc.study.identity import config_hash, config_to_json
 from tumblemc.study.progress import Progress
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
 from tumblemc.study.twins import TWIN_KINDS, outside_tol, twin_row, with_twins

@@ -1,6 +1,6 @@
 """A calibration posterior as a study's joint uncertainty (``[uncertain] posterior = "calib.nc"``).
 
-The file is what :func:`tumblemc.calibrate.calibrate` writes: one variable per
+The file is what :func:`tumblemc.lab.calibrate.calibrate` writes: one variable per
 :class:`~tumblemc.model.params.Params` field along ``sample``. Each run takes one whole
 draw (row) of it, so the correlations the calibration found are kept. The row is chosen by
 a run-keyed uniform (the ``mc`` stream's slot :data:`POSTERIOR_SLOT`), so a run gets the

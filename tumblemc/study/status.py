@@ -11,8 +11,9 @@ import xarray as xr
 
 from tumblemc.analysis.words import check_words, early_words
 from tumblemc.io import ShardStore, open_result, read_study_json, result_attrs
-from tumblemc.study.config import config_hash, config_to_json, load_config
+from tumblemc.study.config import load_config
 from tumblemc.study.design import check_subset, design
+from tumblemc.study.identity import config_hash, config_to_json
 
 
 def default_output(cfg: Any) -> Path:

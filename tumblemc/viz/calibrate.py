@@ -1,4 +1,4 @@
-"""Figure of a calibration (:func:`tumblemc.calibrate.calibrate`): data against the fit, and the posterior."""
+"""Figure of a calibration (:func:`tumblemc.lab.calibrate.calibrate`): data against the fit, and the posterior."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Figures of the validation report, ``tumblemc validate`` (viz layer; matplotlib object API).
 
-:mod:`tumblemc.claims` runs the scenarios and hands the numbers here:
+:mod:`tumblemc.reports.claims` runs the scenarios and hands the numbers here:
 :func:`plot_paper_inclines` (progress against time on the paper inclines),
 :func:`plot_frequency_sweep` and :func:`plot_shape_speeds` (speeds on the flat),
 :func:`plot_adhesion_series` (the adhesion plateaus on the 45 deg incline) and
@@ -211,7 +211,7 @@ def plot_convergence(
     ----------
     table : sequence of mappings
         Rows of the convergence table (``case``, ``torque``, ``dt`` in s,
-        ``progress_ratio``), as :func:`tumblemc.convergence.convergence` returns them
+        ``progress_ratio``), as :func:`tumblemc.reports.convergence.convergence` returns them
         or as read back from ``convergence.csv``.
     cases : sequence of str
         Cases to draw, in legend order.

@@ -20,10 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from tumblemc.convergence import CONVERGENCE_CASES, convergence, default_dt, timed_run
 from tumblemc.model.params import PRESETS
 from tumblemc.model.run import DEFAULT_DT
 from tumblemc.model.shapes.library import get_shape
+from tumblemc.reports.convergence import CONVERGENCE_CASES, convergence, default_dt, timed_run
+from tumblemc.testing import SNAP_HOP
 from tumblemc.viz.style import PENETRATION_FLOOR_M, format_penetration
 from tumblemc.viz.validation import (
     plot_adhesion_series,
@@ -35,17 +36,6 @@ from tumblemc.viz.validation import (
 
 _C = PRESETS["paper"].adhesion_C
 _L, _W, _H = 0.8e-3, 0.4e-3, 0.1e-3  # the cuboid, MODEL.md "Shapes"
-
-#: issue 13's reproducer 1: the aluminum cuboid flat, ten times the adhesion, a strong slow field
-SNAP_HOP = {
-    "preset": "aluminum",
-    "incline_deg": 0.0,
-    "field_mT": 36.7659,
-    "freq_hz": 0.5,
-    "mu": 0.9557,
-    "adhesion_C": 243.2243,
-    "offset_deg": 27.4907,
-}
 
 #: adhesion plateaus of the paper cuboid: face (C L W) and end (C W H), N
 FACE_ADHESION = _C * _L * _W  # paper: 1.189e-6 N

@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from tumblemc import lab
+from tumblemc.lab import protocols as lab
 from tumblemc.model.params import NUMERIC_FIELDS, RANGES, get_preset
 from tumblemc.version import __version__
 

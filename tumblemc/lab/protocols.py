@@ -363,7 +363,7 @@ def steering(
 
     The first leg is the paper's field (it starts along the uphill direction, along the
     magnetisation of the resting robot); the second continues the field from where the
-    first left it, projected onto its rotation plane (:class:`~tumblemc.fields.Sequence`).
+    first left it, projected onto its rotation plane (:class:`~tumblemc.model.fields.Sequence`).
     With ``freq_hz x leg_s`` a whole number plus 3/4 (the default 1.75 Hz x 1 s), the field
     then points up at the switch, normal to both axes, and turns without a jump; otherwise
     it jumps by ``field_jump_deg`` (a robot on adhering aluminum can snap metres per second

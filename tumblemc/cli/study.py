@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from tumblemc.cli.common import UsageError, format_table
+
 #: wall time of one simulated second of one run on one core, s (measured on this project's
 #: 2-core machine: the default study, 20,800 runs of 2 s and 416 check runs at dt/4, in
 #: 2,417 s of simulation on 2 workers with the chord start, 2026-11-27: 0.108); only the
@@ -23,7 +25,7 @@ import xarray as xr
 WALL_PER_SIM_S = 0.11
 
 
-def add_study_parser(sub: Any) -> None:
+def register(sub: Any) -> None:
     """Add ``study`` and its actions to the ``tumblemc`` parser."""
     what = "Monte Carlo robustness studies: run, status, plot"
     st = sub.add_parser("study", help=what, description=what + ".")
@@ -68,6 +70,7 @@ def add_study_parser(sub: Any) -> None:
     cmp.add_argument("critical", help="result netCDF of a mode = critical_incline study")
     cmp.add_argument("grid", help="result netCDF of a grid study of the same shapes and substrates")
     cmp.add_argument("--out", default=None, help="write the comparison table as CSV")
+    st.set_defaults(run=run)
 
 
 def study_header(cfg: Any, path: Path, where: str) -> str:
@@ -151,7 +154,7 @@ def success_table(maps: xr.Dataset, threshold: float = 0.5) -> str:
     return "\n\n".join(blocks)
 
 
-def cmd_study(args: argparse.Namespace, format_table: Any, usage_error: type[Exception]) -> int:
+def run(args: argparse.Namespace) -> int:
     """Run ``study run | status | plot | compare``; returns the exit status."""
     from tumblemc.study.engine import study_status
 
@@ -163,15 +166,15 @@ def cmd_study(args: argparse.Namespace, format_table: Any, usage_error: type[Exc
     if args.study_command == "compare":
         return _compare(args)
     if args.workers is not None and args.workers < 0:
-        raise usage_error(f"--workers {args.workers} is not allowed (allowed: 0 for in-process, or >= 1)")
+        raise UsageError(f"--workers {args.workers} is not allowed (allowed: 0 for in-process, or >= 1)")
     if args.batch_size is not None and args.batch_size < 1:
-        raise usage_error(f"--batch-size {args.batch_size} is not allowed (allowed: >= 1)")
+        raise UsageError(f"--batch-size {args.batch_size} is not allowed (allowed: >= 1)")
     if args.dashboard and (args.scheduler or args.workers == 0):
-        raise usage_error("--dashboard serves the local cluster's dashboard (not allowed with --scheduler or --workers 0)")
-    return _run(args, format_table)
+        raise UsageError("--dashboard serves the local cluster's dashboard (not allowed with --scheduler or --workers 0)")
+    return _run(args)
 
 
-def _run(args: argparse.Namespace, format_table: Any) -> int:
+def _run(args: argparse.Namespace) -> int:
     import os
 
     from tumblemc.io import StudyLock
@@ -292,4 +295,4 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
-__all__ = ["add_study_parser", "cmd_study", "study_header", "success_table"]
+__all__ = ["register", "run", "study_header", "success_table"]

@@ -1,0 +1,146 @@
+"""What every subcommand shares: exit codes, the usage error, value parsers, tables, --set."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tumblemc.model.params import PRESETS, Params
+from tumblemc.model.shapes.library import SHAPES
+
+EXIT_OK = 0
+EXIT_RUN_FAILED = 1
+EXIT_USAGE = 2
+
+SHAPE_CHOICES = tuple(SHAPES)
+PRESET_CHOICES = tuple(PRESETS)
+SHAPE_HELP = f"robot shape: {', '.join(SHAPE_CHOICES)} (default: cuboid)"
+PRESET_HELP = f"parameter preset: {', '.join(PRESET_CHOICES)} (default: paper)"
+
+
+class UsageError(Exception):
+    """Bad command-line input detected by the CLI itself (exit status 2)."""
+
+
+def parse_value(text: str) -> Any:
+    """Parse a ``--set`` value.
+
+    ``true``/``false`` -> bool, a number -> float, ``a,b,c`` -> tuple of floats (e.g.
+    ``offset_axis=1,0,0``); anything else stays a string (the API rejects it with a message
+    naming the parameter).
+    """
+    low = text.strip().lower()
+    if low in ("true", "yes", "on"):
+        return True
+    if low in ("false", "no", "off"):
+        return False
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    if "," in text:
+        try:
+            return tuple(float(part) for part in text.split(","))
+        except ValueError:
+            pass
+    return text
+
+
+def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
+    """``["mu=0.4", "offset_deg=10"]`` -> ``{"mu": 0.4, "offset_deg": 10.0}``."""
+    out: dict[str, Any] = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not value.strip():
+            raise UsageError(f"--set {item!r} is not NAME=VALUE (allowed: e.g. --set mu=0.4)")
+        if name in out:
+            raise UsageError(f"--set {name} given twice (allowed: once per parameter)")
+        if name not in Params.field_names():
+            raise UsageError(
+                f"--set {name}: unknown parameter (allowed: {', '.join(Params.field_names())}; options such as --dt have their own flags)"
+            )
+        out[name] = parse_value(value)
+    return out
+
+
+#: units of the run summary (:func:`tumblemc.summarize`) as the CLI prints it; names not
+#: listed are counts or ratios
+SUMMARY_UNITS = {
+    "mean_speed": "m/s",
+    "ideal_speed": "m/s",
+    "max_penetration": "m",
+    "mean_slip_speed": "m/s",
+    "energy_gain_J": "J",
+    "field_work_bound_J": "J",
+    "lateral_drift": "m",
+    "heading_change_deg": "deg",
+    "duration": "s",
+    "progress": "m",
+}
+
+
+def format_table(d: dict[str, Any], units: dict[str, str] | None = None) -> str:
+    """Aligned ``name  value [unit]`` lines."""
+    if not d:
+        return ""
+    width = max(len(k) for k in d)
+    lines = []
+    for k, v in d.items():
+        if isinstance(v, float) and not isinstance(v, bool):
+            text = f"{v:.6g}" if math.isfinite(v) else str(v)
+        else:
+            text = str(v)
+        unit = (units or {}).get(k)
+        lines.append(f"{k:<{width}}  {text}" + (f" {unit}" if unit else ""))
+    return "\n".join(lines)
+
+
+def parse_values(name: str, text: str) -> list[float]:
+    """``a:b:step`` (inclusive) or a comma list of numbers."""
+    try:
+        if ":" in text:
+            a, b, s = (float(v) for v in text.split(":"))
+            if not s > 0 or b < a:
+                raise ValueError
+            return list(np.round(np.arange(a, b + s / 2, s), 12))
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"{name}={text!r} is not allowed (allowed: START:STOP:STEP or a comma list, e.g. 3:15:1 or 1,5,10)") from None
+
+
+def parse_vector(name: str, text: str) -> tuple[float, float, float]:
+    """Three comma-separated numbers."""
+    try:
+        vals = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != 3:
+        raise ValueError(f"{name}={text!r} is not allowed (allowed: three comma-separated numbers, e.g. 0,0,-1)")
+    return (vals[0], vals[1], vals[2])
+
+
+def add_set(p: argparse.ArgumentParser) -> None:
+    """Add the repeatable ``--set NAME=VALUE`` parameter override to ``p``."""
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="overrides", help="override a parameter (repeatable)")
+
+
+def write_dataset(ds: Any, args: argparse.Namespace) -> int:
+    """Write a protocol's or a calibration's Dataset to ``--out`` and, with ``--plot``, its figure next to it."""
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    ds.to_netcdf(out)
+    print(f"wrote {out}")
+    if args.plot:
+        from tumblemc.viz.calibrate import plot_calibration
+        from tumblemc.viz.lab import plot_lab
+
+        png = out.with_suffix(".png")
+        if (plot_calibration(ds, png) if "test" in ds.attrs else plot_lab(ds, png)) is not None:
+            print(f"wrote {png}")
+    return 0
