@@ -1,4 +1,4 @@
-"""The coverage campaign of adaptive sampling (issue 15, item 4): writes docs/notes/adaptive_coverage.md and its figure.
+"""The coverage campaign of adaptive sampling: writes docs/notes/adaptive_coverage.md and its figure.
 
     python tools/adaptive_coverage.py [--reps 20000] [--out docs/notes/adaptive_coverage.md]
 
@@ -94,7 +94,7 @@ def figure(curves: dict[tuple[float, int, str], np.ndarray], p_grid: np.ndarray,
 
 def report(rows: list[dict[str, float]], reps: int, seconds: float, fig_name: str, grid_min: dict[str, tuple[float, float]]) -> str:
     lines = [
-        "# Adaptive sampling: coverage of the interval at the stop (issue 15, item 4)",
+        "# Adaptive sampling: coverage of the interval at the stop",
         "",
         f"Regenerate with `python tools/adaptive_coverage.py` ({reps:,} simulated cells per row, {seconds:.0f} s on this machine).",
         "",

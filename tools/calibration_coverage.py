@@ -1,4 +1,4 @@
-"""The calibration coverage campaign (issue 14): writes docs/notes/calibration_coverage.md.
+"""The calibration coverage campaign: writes docs/notes/calibration_coverage.md.
 
     python tools/calibration_coverage.py [--reps 50] [--out docs/notes/calibration_coverage.md]
 
@@ -58,7 +58,7 @@ def main() -> None:
     cov2 = coverage(400)
     t_cov2 = time.perf_counter() - t0
     lines = [
-        "# Calibration coverage campaign (issue 14)",
+        "# Calibration coverage campaign",
         "",
         f"Written by `python tools/calibration_coverage.py --reps {args.reps}` ({platform.node()}, "
         f"{time.strftime('%Y-%m-%d')}). Method: [calibration.md](calibration.md).",

@@ -1,4 +1,4 @@
-"""Compare the verdicts of two studies run by run (issue 15: a kernel change that is not bit for bit).
+"""Compare the verdicts of two studies run by run (a kernel change that is not bit for bit).
 
     python tools/compare_verdicts.py REFERENCE.nc NEW.nc [--out docs/report.md]
 

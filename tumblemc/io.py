@@ -34,7 +34,7 @@ import xarray as xr
 
 SHARD_SUFFIX = ".npz"
 DIGEST_CHARS = 16  # hex digits of the shard's SHA-256 in its name
-LEGACY_TAG_CHARS = 8  # the random tag that ended a shard's name before (tumblemc < issue 16): no checksum to verify
+LEGACY_TAG_CHARS = 8  # the random tag that ended a shard's name in earlier versions: no checksum to verify
 
 
 class StudyStateError(ValueError):

@@ -275,7 +275,7 @@ def test_bounds_with_invalid_runs() -> None:
     assert float(c["p_success_invalid_as_success"]) == 8 / 10
 
 
-# --- legibility of the study and validation figures (issue 16) ---------------------------
+# --- legibility of the study and validation figures ---------------------------
 
 
 def _sliding_runs() -> xr.Dataset:

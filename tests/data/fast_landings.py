@@ -10,7 +10,7 @@ the step before two landings whose normal impulse does positive work:
 
 And one slow landing that fails at a small step (a known solver gap, docs/notes/solver_gaps.md):
 
-- ``small_step``: issue 13's reproducer 1 (``tumblemc.reports.claims.SNAP_HOP``, cuboid) at
+- ``small_step``: the snap hop (``tumblemc.testing.SNAP_HOP``, cuboid) at
   dt = 5e-6 s, t = 0.40246 s, the edge landing after the first hop at 0.17 m/s along
   the plane and 0.38 m/s down, spinning at 890 rad/s (the magnetic wobble of the flight):
   every strategy and every halving down to dt / 256 fails, while the same state
@@ -50,7 +50,7 @@ RUN_122 = {
     "offset_deg": 26.94,
 }
 STEPS = {"refined": 37837, "kept": 61719}  # steps taken before the landing
-SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6}  # with tumblemc.reports.claims.SNAP_HOP
+SMALL_STEP = {"shape": "cuboid", "duration_s": 1.0, "dt": 5e-6}  # with tumblemc.testing.SNAP_HOP
 SMALL_STEP_STEPS = 80492
 OUT = Path(__file__).resolve().parent / "fast_landings.npz"
 

@@ -11,7 +11,7 @@ at 0.04 m/s (docs/notes/solver_gaps.md, section 5): the step that guess 10 solve
 thrown up by the field, lands on a vertex while turning about the normal at 426 rad/s: the
 torsional friction stops the turn at once (``e_r`` = 0.1 m), the step that guess 11 solves.
 
-``pivot``: issue 13's reproducer 1 (``tumblemc.reports.claims.SNAP_HOP``, cuboid) at dt = 3.125e-6 s,
+``pivot``: the snap hop (``tumblemc.testing.SNAP_HOP``, cuboid) at dt = 3.125e-6 s,
 integrated up to the step before t = 0.42259 s: the edge that touched in the last step
 lands at 0.06 m/s while sliding at 0.14 m/s, and the impact sticks. Every strategy and
 every halving failed there until ``lu_factor`` tested its pivots against their own row

@@ -1,4 +1,4 @@
-"""Early decisions (tumblemc.kernels.decide; issue 15, item 3).
+"""Early decisions (tumblemc.kernels.decide).
 
 The bound is checked against a Python twin written from the derivation in the module's
 docstring, against the runs themselves (at every recorded instant of the window the climb

@@ -28,7 +28,7 @@ from tumblemc.model.solver_options import SolverOptions
 from tumblemc.testing import SNAP_HOP
 
 # ---- Landings no strategy solved: the saved steps and their guesses ----------------------
-# Landings that no solve strategy solved (docs/notes/solver_gaps.md, issue 13).
+# Landings that no solve strategy solved (docs/notes/solver_gaps.md).
 #
 # Two steps, saved with the state and warm start the time loop had before them, that every
 # strategy and every halving used to fail (the best attempt was kept, a failed step):
@@ -104,7 +104,7 @@ def test_out_of_plane_family_has_no_failed_step() -> None:
 
 @pytest.mark.slow
 def test_reproducer_1_has_no_failed_landing_at_dt_and_dt_over_4() -> None:
-    """Issue 13, reproducer 1: 4 failed landings at dt / 4 before guess 9, none now."""
+    """Reproducer 1 of the solver's stress campaign: 4 failed landings at dt / 4 before guess 9, none now."""
     ratios = []
     for dt in (5e-5, 1.25e-5):
         ds = tumblemc.simulate(shape="cuboid", dt=dt, record_every=4, **REPRO_1)  # type: ignore[arg-type]
@@ -118,7 +118,7 @@ def test_reproducer_1_has_no_failed_landing_at_dt_and_dt_over_4() -> None:
 
 @pytest.mark.slow
 def test_reproducer_2_stays_near_the_plane() -> None:
-    """Issue 13, reproducer 2 (aluminum, offset 30 deg about body z).
+    """Reproducer 2 of the solver's stress campaign (aluminum, offset 30 deg about body z).
 
     The paper form flew 2 m high; the momentum form hops at most 2.4 mm, with no failed step
     and no energy gain.

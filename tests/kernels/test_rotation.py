@@ -51,7 +51,7 @@ def test_free_spin_keeps_angular_momentum_and_gains_no_energy(spins: dict[str, x
 
 
 def test_paper_form_gains_energy_in_a_free_spin(spins: dict[str, xr.Dataset]) -> None:
-    """The reason for the default (issue 13: x2.96 energy, x1.93 momentum in 50 ms)."""
+    """The reason for the default (x2.96 energy, x1.93 momentum in 50 ms)."""
     L, E = _momentum_energy(spins["paper"])
     assert E[-1] > 2.5 * E[0]
     assert np.linalg.norm(L[-1]) > 1.5 * np.linalg.norm(L[0])

@@ -1,4 +1,4 @@
-"""Calibration from bench data (tumblemc.lab.calibrate, issue 14)."""
+"""Calibration from bench data (tumblemc.lab.calibrate)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Bench-test protocols (tumblemc.lab, issue 14): the static tilt against its closed form, steering, sweeps."""
+"""Bench-test protocols (tumblemc.lab): the static tilt against its closed form, steering, sweeps."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from tumblemc.model.shapes.types import ALUMINUM_ROBOT_LWH_M
 
 
 def test_closed_form_balance_by_hand() -> None:
-    # lift-off where V_m|E||B| cos(phi) = (m g + F_elect + C L W) L/2, about 6.2 mT (issue 14)
+    # lift-off where V_m|E||B| cos(phi) = (m g + F_elect + C L W) L/2, about 6.2 mT
     p = get_preset("paper")
     L, W, H = ALUMINUM_ROBOT_LWH_M  # the paper's cuboid (MODEL.md), independent of the shape library
     phi = math.radians(p.offset_deg)

@@ -1,4 +1,4 @@
-"""One adhesion rule for every shape (MODEL.md, "Forces"; issue 13, item 5).
+"""One adhesion rule for every shape (MODEL.md, "Forces").
 
 Line contact adheres over a strip of width ``line_contact_width`` along the touching
 segment, point contact over ``width^2``; the authors' cuboid rule stays as
@@ -101,7 +101,7 @@ def test_line_adhesion_is_validated() -> None:
 
 
 def test_peel_release_costs_the_work_of_adhesion_and_lowers_the_snap_hop() -> None:
-    """adhesion_release="peel" costs the work of adhesion (issue 13, item 3).
+    """adhesion_release="peel" costs the work of adhesion.
 
     A released face's adhesion holds until it has done C x peel_length per released area, so
     the adhesion does more negative work and, with a long enough peel, the hop of issue 13's

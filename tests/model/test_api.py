@@ -256,7 +256,7 @@ def test_contact_state_classification() -> None:
 
 
 def test_public_api() -> None:
-    """The package's public names (issue 12): one run, studies, shapes and presets."""
+    """The package's public names: one run, studies, shapes and presets."""
     import tumblemc
 
     for name in ("simulate", "summarize", "run_study", "load_config", "open_result", "shapes", "PRESETS", "SHAPES", "Params"):

@@ -116,7 +116,7 @@ def test_free_spin_paper_form_is_flagged_momentum_form_is_not() -> None:
     pap = tumblemc.simulate(rotation="paper", **kw)  # type: ignore[arg-type]
     ke0 = float(mom["kinetic_energy"][0])
     assert mom.attrs["energy_gain_J"] <= 1e-9 * ke0 and mom.attrs["status"] == BATCH_OK
-    assert pap.attrs["energy_gain_J"] > ke0  # x2.96 (issue 13)
+    assert pap.attrs["energy_gain_J"] > ke0  # x2.96
     assert pap.attrs["energy_gain_ratio"] > ENERGY_GAIN_TOL and pap.attrs["status"] == BATCH_ENERGY_GAIN
 
 

@@ -1,4 +1,4 @@
-"""Closed-form physics: rest, sliding, sticking, free fall, energy (issue 2 acceptance)."""
+"""Closed-form physics: rest, sliding, sticking, free fall, energy."""
 
 from __future__ import annotations
 

@@ -98,7 +98,7 @@ HEIGHT = 100e-6
 
 
 def test_nonplanar_magnetisation_runs_without_failed_steps(nonplanar) -> None:  # type: ignore[no-untyped-def]
-    """Issue 2 acceptance: 20 runs, random tilt axes and offsets up to 30 deg (roll, yaw)."""
+    """20 runs, random tilt axes and offsets up to 30 deg (roll, yaw)."""
     assert all(s["failed_steps"] == 0 for s in nonplanar)
     assert max(s["max_penetration"] for s in nonplanar) <= 1e-3 * HEIGHT
 
@@ -107,7 +107,7 @@ def test_nonplanar_magnetisation_runs_without_failed_steps(nonplanar) -> None:  
 @pytest.mark.parametrize("shape", ["cuboid", "spiked", "spiked_ends", "curved"])
 @pytest.mark.parametrize("preset", ["paper", "aluminum"])
 def test_every_shape_runs_with_no_failed_steps(shape: str, preset: str) -> None:
-    """Issue 3: every shape on flat and inclined planes, 2 field periods, 0 failed steps."""
+    """Every shape on flat and inclined planes, 2 field periods, 0 failed steps."""
     for incline in (0.0, 20.0, 30.0):
         s = tumblemc.summarize(tumblemc.simulate(shape=shape, preset=preset, incline_deg=incline, duration_s=2.0))
         assert s["failed_steps"] == 0, (shape, preset, incline)

@@ -1,4 +1,4 @@
-"""The stress campaign (issue 13, item 8; ``tumblemc stress``): tallies, report, CLI."""
+"""The stress campaign (``tumblemc stress``): tallies, report, CLI."""
 
 from __future__ import annotations
 
@@ -81,7 +81,7 @@ def test_stress_cli_quick_writes_the_report(tmp_path: Path, capsys: pytest.Captu
     )
     assert code == 0
     text = (out / "stress.md").read_text()
-    for section in ("## Study", "### Runs that are not valid, by class", "## 3-D runs", "## Reproducers of issue 13"):
+    for section in ("## Study", "### Runs that are not valid, by class", "## 3-D runs", "## The solver's reproducers"):
         assert section in text
     assert (out / "stress.png").stat().st_size > 10_000
     assert "wrote" in capsys.readouterr().out

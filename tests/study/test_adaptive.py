@@ -1,4 +1,4 @@
-"""Adaptive sampling per cell (issue 15, item 4): the confidence sequence, its coverage, the engine's rounds."""
+"""Adaptive sampling per cell: the confidence sequence, its coverage, the engine's rounds."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The study file's CF/ACDD metadata and provenance (issue 16).
+"""The study file's CF/ACDD metadata and provenance.
 
 ACDD global attributes at the root, groups that hold only their own attributes, int8 flags
 with flag attributes, and the git commit and dirty flag of the code that wrote the file:

@@ -420,7 +420,7 @@ def test_batch_row_with_lift_equals_simulate() -> None:
 
 
 def test_dt_check_compares_ratios_against_the_tolerance(reference: Path, tmp_path: Path) -> None:
-    """The dt check compares numbers (issue 13, item 4).
+    """The dt check compares numbers.
 
     Per check run the ratio difference and a within-tolerance flag, the share in the maps,
     and the words of study status; the tolerance is a config key.

@@ -1,4 +1,4 @@
-"""Fault probes of the study engine (issue 16): what users and disks do to a study.
+"""Fault probes of the study engine: what users and disks do to a study.
 
 Damaged and conflicting shards, a second `study run` on the same output, configs that no
 run could finish, a full disk in the final write, unreadable configs and records, a busy

@@ -1,4 +1,4 @@
-"""A study's [field] table and the field axis's pointing error (issue 14, item 1)."""
+"""A study's [field] table and the field axis's pointing error."""
 
 from __future__ import annotations
 

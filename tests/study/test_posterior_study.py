@@ -1,4 +1,4 @@
-"""A calibration posterior as a study's joint uncertainty (issue 14: [uncertain] posterior = "calib.nc")."""
+"""A calibration posterior as a study's joint uncertainty ([uncertain] posterior = "calib.nc")."""
 
 from __future__ import annotations
 

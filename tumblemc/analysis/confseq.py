@@ -22,8 +22,8 @@ minimum at ``k / n``, so ``CS_n`` is an interval; its ends are found by bisectio
 
 The prior decides where the sequence is narrow (:data:`MIXTURES`):
 
-- ``"ends"`` (``ci = "confidence-sequence-ends"``, adaptive sampling's default since
-  2026-11-28): half the prior is uniform, half is ``Beta(0.1, 0.1)`` (which by itself puts
+- ``"ends"`` (``ci = "confidence-sequence-ends"``, adaptive sampling's default): half the
+  prior is uniform, half is ``Beta(0.1, 0.1)`` (which by itself puts
   a quarter of its mass within 1e-3 of 0 and a quarter within 1e-3 of 1, so the mixture
   an eighth at each end). A robustness map has many cells where every
   run climbs or every run fails; this prior stops them after 21 runs at half-width 0.1
@@ -32,7 +32,7 @@ The prior decides where the sequence is narrow (:data:`MIXTURES`):
   a cell under a stated mix of cells (half at ``p = 0`` or ``1``, half spread over (0, 1);
   docs/adaptive.md), not fitted to one study's outcomes.
 - ``"uniform"`` (``ci = "confidence-sequence"``, and the functions' default): Robbins'
-  uniform prior, adaptive sampling's rule before 2026-11-28 (the method name kept its
+  uniform prior, adaptive sampling's earlier rule (the method name kept its
   meaning, so earlier results and configs keep theirs); all success (``k = n``) then has
   the closed form ``lower = (alpha / (n + 1))^(1 / n)``.
 

@@ -68,7 +68,7 @@ def proportion_ci(k: ArrayLike, n: ArrayLike, level: float = 0.95, method: str =
         ``"clopper-pearson"``: the exact interval (``method="exact"`` of scipy);
         ``"confidence-sequence"``: the anytime-valid beta-binomial mixture interval of
         :func:`tumblemc.analysis.confseq.cs_interval` with Robbins' uniform prior (wider
-        than the others at fixed n; what adaptive sampling stopped on before 2026-11-28);
+        than the others at fixed n; what adaptive sampling stopped on in earlier versions);
         ``"confidence-sequence-ends"``: the same with the ``"ends"`` prior (adaptive
         sampling's default since then).
 

@@ -20,7 +20,7 @@ from tumblemc.cli.common import UsageError, format_table
 
 #: wall time of one simulated second of one run on one core, s (measured on this project's
 #: 2-core machine: the default study, 20,800 runs of 2 s and 416 check runs at dt/4, in
-#: 2,417 s of simulation on 2 workers with the chord start, 2026-11-27: 0.108); only the
+#: 2,417 s of simulation on 2 workers with the chord start: 0.108); only the
 #: header's first estimate, the bar's ETA measures the real rate
 WALL_PER_SIM_S = 0.11
 

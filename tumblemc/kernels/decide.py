@@ -1,4 +1,4 @@
-"""Early decisions (issue 15, item 3): the most a run can still climb, from its energy.
+"""Early decisions: the most a run can still climb, from its energy.
 
 A run climbs when its uphill progress over the measurement window reaches ``need`` (the
 success ratio x the no-slip speed x the window). At a time ``t`` in the window, the rest of

@@ -1,4 +1,4 @@
-"""Calibration from bench data (issue 14): fit :class:`~tumblemc.model.params.Params` fields, then a posterior.
+"""Calibration from bench data: fit :class:`~tumblemc.model.params.Params` fields, then a posterior.
 
 Bench data are CSV files with a header naming the test:
 

@@ -1,4 +1,4 @@
-"""Bench tests in simulation (issue 14): static tilt, critical field, step-out, steering.
+"""Bench tests in simulation: static tilt, critical field, step-out, steering.
 
 Each protocol returns an xarray Dataset with units (and a ``protocol`` attribute) that
 :mod:`tumblemc.viz.lab` plots; ``tumblemc lab ...`` runs them from the command line.

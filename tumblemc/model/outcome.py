@@ -107,7 +107,7 @@ def summarize(ds: xr.Dataset, transient_periods: float = 1.0, threshold: float =
     mean_speed = (prog[-1] - prog[i0]) / dur
     ideal = float(ds.attrs["ideal_speed"])
     ratio = mean_speed / ideal
-    # runs written before 2026-11-23 hold the time loop's code in "status"
+    # runs written by earlier versions hold the time loop's code in "status"
     kernel_status = int(ds.attrs.get("kernel_status", ds.attrs["status"]))
     if kernel_status != 0:  # the run stopped early (non-finite state, or too many failed steps)
         mean_speed = ratio = math.nan

@@ -25,7 +25,7 @@ class SolverOptions:
         at once, without halving, and the step counted as loose, if the max-norm of the
         model's residual there is at most this (at metres per second the residual can stall
         just above ``tol``, and its floor grows as the step shrinks). Allowed: 0, or from
-        ``tol`` to 1. 0 (with ``impulse_accept_tol`` = 0) restores the rule before 2026-11-21: halve, then fail.
+        ``tol`` to 1. 0 (with ``impulse_accept_tol`` = 0) restores the earlier rule: halve, then fail.
     landing_work : a converged contact (sub-)step whose normal impulse does positive work
         above this fraction of the step's energy scale (the weight times the length unit +
         the field's work bound over one step, ``m g x 1e-4 m + |m||B| (2 + 2 pi f dt)``) is
@@ -36,7 +36,7 @@ class SolverOptions:
         again, at most ``refine_halvings`` times) and the sub-steps together do less
         positive normal work; otherwise the full step is solved again and kept. Every
         converged sub-step is checked, also one after an earlier sub-step of the same step
-        was committed (since 2026-11-28; before, only a step's first sub-step was, and a
+        was committed (before, only a step's first sub-step was, and a
         landing in the second half of a step halved for convergence kept its positive
         work: docs/solver_gaps.md, section 9). The default 1e-5 is a thousandth of the
         energy tolerance (``ENERGY_GAIN_TOL`` = 1e-2 of a scale at least the step's), so a
@@ -52,8 +52,7 @@ class SolverOptions:
         At a landing solved in a tiny sub-step the contact forces are an impulse divided by that sub-step (1e6 weights at 2e-8 s), and
         Newton can stall at a kink with a residual of 0.9 that is 5e-7 of the forces it
         balances (docs/solver_gaps.md). The energy ledger still judges what is kept; steps
-        that converge are not affected. Allowed: 0 (never: such steps fail, the rule before
-        2026-11-27) to 1e-3.
+        that converge are not affected. Allowed: 0 (never: such steps fail, the earlier rule) to 1e-3.
     chord_iter : a step's first attempt starts with up to this many chord iterations: the
         LU factors of the last plain Newton matrix of the same step length (an earlier
         step's) applied to the new residual, kept while each divides the residual's max-norm
@@ -61,7 +60,7 @@ class SolverOptions:
         integrators; ``tumblemc.kernels.newton.solve``). The convergence test is unchanged
         (``tol``), so the solutions agree to ``tol``, not bit for bit; the iterations
         recorded count the chord ones. 0: a fresh Jacobian and LU at every iteration (the
-        rule before 2026-11-27, bit for bit). Allowed: 0 to 100.
+        earlier rule, bit for bit). Allowed: 0 to 100.
     smooth_stalled : 1 (the default): every strategy is tried at every (sub-)step. 0: once
         an attempt has stalled at a residual within ``accept_tol`` (so the (sub-)step will
         not be halved for want of convergence; a landing refinement, its restart or a
@@ -80,7 +79,7 @@ class SolverOptions:
         order (2 up to ``warm_order``) that predicted the step just solved best (the
         max-norm of each extrapolation's error; variable-order predictors choose their
         order the same way). An order p needs p + 1 contact solutions in a row. 2: the
-        quadratic through the last three (the rule before 2026-11-28, bit for bit). 3 (the
+        quadratic through the last three (the earlier rule, bit for bit). 3 (the
         default): the cubic or the quadratic. 4: up to the quartic; 5: up to the quintic.
         Only the starting point changes: the convergence test is the same, so the solutions
         agree to ``tol``, not bit for bit. Measured (docs/kernel_experiments.md, "A cubic
@@ -100,13 +99,13 @@ class SolverOptions:
         1e9 times the unit rows, and the matrix-wide test called regular matrices singular.
         The solver then took a Levenberg-Marquardt direction that stalls (docs/solver_gaps.md,
         section 7: the small-step landings of reproducer 1). 0: the matrix-wide test alone,
-        the rule before 2026-11-28, bit for bit. Matrices that pass the matrix-wide test are
+        the earlier rule, bit for bit. Matrices that pass the matrix-wide test are
         factored the same way under either setting. Allowed: 0 or 1.
     stall_window : > 0: a smoothing attempt (the continuation of strategies 6-16 and 22, up
         to 300 iterations) stops as unconverged once ``stall_window`` iterations in a row
         have neither halved its residual's max-norm nor lowered its smoothing parameter;
         the next strategy follows, as after its iteration limit. Plain attempts are not
-        affected. 0: every smoothing attempt runs to its limit (the rule before 2026-11-28,
+        affected. 0: every smoothing attempt runs to its limit (the earlier rule,
         bit for bit). On refined steps of the curved robot sliding on aluminum, attempts
         that never converge took up to 35,700 of a step's 42,244 iterations. Measured with
         80 against 0 (docs/kernel_experiments.md, "A stall window for the smoothing
@@ -124,7 +123,7 @@ class SolverOptions:
         robots sliding on aluminum at 40-60 deg, one failed step each): sub-steps whose
         plain Newton converges after 60 to a few hundred iterations, or whose smoothing
         attempt the stall window had cut. 1000 (the default) solves all 13 (300 solves 9).
-        0: the failed step is kept at once (the rule before 2026-11-28).
+        0: the failed step is kept at once (the earlier rule).
         Allowed: 0 to 10,000.
     refine_halvings : a sub-step of a refined landing (``landing_work``) that does not
         converge is halved again, at most this many times within the refinement (the rest of
@@ -137,7 +136,7 @@ class SolverOptions:
         2 (the default) makes 4 of that class's 5 ``energy_gain`` runs of 400 valid at about
         the same cost (docs/solver_gaps.md, section 10); without a bound, the refinement
         went down to dt/256 at such landings and a run took ten times longer. 0: the step
-        returns to its start at once (the rule before 2026-11-29, bit for bit).
+        returns to its start at once (the earlier rule, bit for bit).
         Allowed: 0 to 30.
     """
 

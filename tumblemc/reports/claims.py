@@ -277,7 +277,7 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
     plot_shape_speeds(speeds, no_slip, "flat substrate, 20 mT, 10 Hz", path=figdir / "shape_speeds.png")
 
     mismatched = []
-    # both line-adhesion rules side by side (MODEL.md, "Forces"; issue 13, item 5): the strip
+    # both line-adhesion rules side by side (MODEL.md, "Forces"): the strip
     # rule (default) and the authors' cuboid rule applied to every shape ("face_fraction")
     for rule, cid in (("strip", "C7"), ("face_fraction", "C7f")):
         for th, want in SHAPE_CLIMBS.items():
@@ -331,9 +331,9 @@ def shape_claims(rep: Report, figdir: Path, quick: bool = False) -> None:
 
 
 def release_claims(rep: Report) -> None:
-    """The adhesion release law (issue 13, item 3) on the aluminum claims and the snap hop.
+    """The adhesion release law on the aluminum claims and the snap hop.
 
-    The paper's aluminum claims (30 deg climbs, 45 fails) and issue 13's reproducer 1
+    The paper's aluminum claims (30 deg climbs, 45 fails) and the snap hop (``tumblemc.testing.SNAP_HOP``)
     under ``adhesion_release="peel"`` (``peel_length`` 10 um: releasing a face costs
     ``C x 10 um`` per area; also 1 and 100 um for the hop), against the force law.
     """
@@ -360,7 +360,7 @@ def release_claims(rep: Report) -> None:
 
 
 def nonplanar(rep: Report, n: int = 20, seed: int = 2019) -> None:
-    """Magnetisation tilted out of the length-height plane: roll and yaw (issue 2)."""
+    """Magnetisation tilted out of the length-height plane: roll and yaw."""
     rng = np.random.default_rng(seed)
     worst_pen = 0.0
     fails = 0

@@ -1,4 +1,4 @@
-"""Stress campaign of issue 13: a wide-range study, 3-D runs, and their report (``tumblemc stress``).
+"""The stress campaign: a wide-range study, 3-D runs, and their report (``tumblemc stress``).
 
 Far from the paper's two operating points a run may fail to converge, make energy, or
 depend on the time step. This campaign measures how often, and explains every run that is
@@ -275,7 +275,7 @@ def write_report(
         keys += ["energy_gain_ratio", "max_penetration_H", "progress_ratio", "lateral_drift", "heading_change_deg"]
         lines.append(_md_table(three_d, keys))
     if repro:
-        lines += ["## Reproducers of issue 13", "", "Both rotation rows (MODEL.md), default dt and dt / 4.", "", _md_table(repro)]
+        lines += ["## The solver's reproducers", "", "Both rotation rows (MODEL.md), default dt and dt / 4.", "", _md_table(repro)]
     path = out / "stress.md"
     path.write_text("\n".join(lines) + "\n")
     return path

@@ -51,7 +51,7 @@ sampler              ``"mc"`` (default), ``"sobol"`` or ``"lhs"`` (see Notes)
 seed*                root seed, integer >= 0
 ci                   ``"wilson"`` (default), ``"clopper-pearson"``,
                      ``"confidence-sequence"`` (Robbins' uniform prior; the rule of
-                     adaptive studies before 2026-11-28) or ``"confidence-sequence-ends"``
+                     adaptive studies in earlier versions) or ``"confidence-sequence-ends"``
                      (the default with ``precision``: the ``"ends"`` prior,
                      analysis/confseq.py); with ``precision`` only the last two
 ci_level             confidence level of the intervals (default 0.95)

@@ -20,8 +20,8 @@ if TYPE_CHECKING:
 #: implied: left out of the hashed text (identity_json) at that value, so that an earlier study
 #: keeps its config hash. ``rotation`` then became "momentum" by default: a config that omits it hashes
 #: with it written out, so an earlier paper-form run's shards are refused, not mixed in; the
-#: same for ``early_decision`` (true by default since 2026-11-27) and ``check.twin_rel`` (the
-#: sensitivity twins of the dt check, 1e-6 by default since 2026-11-28)
+#: same for ``early_decision`` (true by default) and ``check.twin_rel`` (the
+#: sensitivity twins of the dt check, 1e-6 by default)
 ADDED_KEYS: dict[str, object] = {
     "rotation": "paper",
     "check.ratio_abs_tol": 0.05,
