@@ -78,7 +78,7 @@ for mod in ("batch", "contact", "field", "geometry", "guesses", "impacts", "ledg
         key = mod + "." + name
         if f.targetoptions.get("_nrt", True):
             out["with_nrt"].append(key)
-        if not f.overloads:
+        if not f.overloads and f.targetoptions.get("inline") != "always":  # inlined stages compile into their callers
             out["unused"].append(key)
         for ov in f.overloads.values():
             out["compiled"].append(key)

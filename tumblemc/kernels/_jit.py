@@ -18,6 +18,11 @@ Every Numba function in :mod:`tumblemc.kernels` is compiled through :func:`jit` 
 - ``error_model="numpy"``: a division by zero gives inf/NaN (caught by those checks)
   instead of raising inside a Newton loop.
 - ``boundscheck`` follows Numba's default (off, or ``NUMBA_BOUNDSCHECK=1`` to debug).
+- **Inlined stages** (:func:`jit_inline`, ``inline="always"``): the time loop's per-step
+  stages (one step, a sub-step's solve, the ladder, the commit) are functions in the
+  source, in the shape of the algorithm, and compile into their one caller (the loop
+  ``stepper.march``): each takes about a hundred arrays in its records, and passing them
+  as calls cost a cheap step 1.22x (docs/notes/kernel_experiments.md).
 - **No reference counting** (``_nrt=False``, Numba's option for code compiled without
   its runtime) in every kernel but the few that allocate (the time loops ``run`` and
   ``run_batch``, which own every array of a run, and the impact guesses, which solve
@@ -71,6 +76,17 @@ if os.environ.get("NUMBA_CACHE_DIR"):
 def jit(func):  # type: ignore[no-untyped-def]
     """Compile ``func`` with the project's jit policy, without reference counting (see module docstring)."""
     return numba.njit(**JIT_OPTIONS, _nrt=False)(func)
+
+
+def jit_inline(func):  # type: ignore[no-untyped-def]
+    """As :func:`jit`, inlined into its caller at Numba's IR level (``inline="always"``).
+
+    For the time loop's per-step stages (one step, a sub-step's solve, the ladder, the
+    commit): each takes about a hundred arrays in its records, and a call passes them all,
+    which costs more than a cheap step's own work (measured: 1.22x per step as calls). The
+    stages stay functions in the source, in the shape of the algorithm.
+    """
+    return numba.njit(**JIT_OPTIONS, _nrt=False, inline="always")(func)
 
 
 def jit_alloc(func):  # type: ignore[no-untyped-def]

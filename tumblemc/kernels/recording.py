@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_inline
 from .layout import (
     B_A1,
     B_A2,
@@ -99,7 +99,7 @@ def recentre_undo(state, z, xoff, pstart):  # type: ignore[no-untyped-def]
             off += B_FIXED + pstart[kp + 1] - pstart[kp]
 
 
-@jit
+@jit_inline
 def record_row(rec, row, state, z, sv, led, xoff):  # type: ignore[no-untyped-def]
     """Write record row ``row``: time, state and ECP (positions plus the origin's shift
     ``xoff``, :func:`recentre`), the last commit's contact summary and the interval's
@@ -131,7 +131,7 @@ def record_row(rec, row, state, z, sv, led, xoff):  # type: ignore[no-untyped-de
         rec[row, R_LED + i] = led[i]
 
 
-@jit
+@jit_inline
 def reset_counters(sv):  # type: ignore[no-untyped-def]
     """Start a new record interval: zero the interval's counters in ``sv``."""
     for k in (SV_NIT, SV_RES, SV_FB, SV_SUB, SV_PEN, SV_FAIL, SV_LOOSE, SV_IMPULSE):

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit
+from ._jit import jit_inline
 from .contact import CONTACT_LN_TOL, contact_state, impulse_consistent, peel_step, prepare_step
 from .geometry import QS_Q, quat_step, quat_to_rot
 from .guesses import LOW_TOL
@@ -55,7 +55,7 @@ from .substep import OPTS_FULL, push_history, solve_substep
 from .support import lowest_point
 
 
-@jit
+@jit_inline
 def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, failed_total, nwork_max):  # type: ignore[no-untyped-def]  # noqa: C901
     """Advance the run by step ``step`` (length ``h``, the run starting at ``t0``).
 
@@ -271,7 +271,7 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
     return status, step_failed, step_loose, step_impulse
 
 
-@jit
+@jit_inline
 def commit(step, h, t0, hc, remaining, free, have_ls, model, scr, lp, live):  # type: ignore[no-untyped-def]
     """Commit the (sub-)step ``hc`` solved in ``buf.z`` (``live.z``): the ledger, the state,
     the time, the contact state, the touching flags and the penetration. ``free``: solved

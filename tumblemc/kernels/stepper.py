@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ._jit import jit, jit_alloc
+from ._jit import jit, jit_alloc, jit_inline
 from .decide import DECIDE_EVERY, climb_bound
 from .field import field_work_bound
 from .geometry import N_CG, N_QS, Geometry
@@ -112,7 +112,6 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     geo = model.geo
     state = start.state
     h = clock.h
-    n_steps = clock.n_steps
     z = buf.z
     n = z.shape[0]
     K = geo.pstart.shape[0] - 1
@@ -148,6 +147,32 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     # several thicknesses in a step and the end-pose contact throws it back out)
     nwork_max = opts[O_NWORK] * (prm[P_MASS] * prm[P_G] + field_work_bound(prm, h))
     led[L_KE] = kinetic_energy(state, prm, lp.lw)
+    for i in range(3):
+        lp.xw[i] = state[i]
+    record_row(rec, 0, state, z, sv, led, lp.xoff)  # the start, with no contact summary yet
+    sv[SV_AREA] = start.area0
+    sv[SV_ANY_TOUCH] = 1.0 if start.touch0 else 0.0
+    status, failed_total, t_decided = march(model, opts, start, clock, rec, buf, scr, opts_set, lp, live, live_start, nwork_max)
+    # the final state and the last solution's positions in the caller's frame
+    recentre_undo(state, z, lp.xoff, geo.pstart)
+    return status, failed_total, t_decided
+
+
+@jit
+def march(model, opts, start, clock, rec, buf, scr, opts_set, lp, live, live_start, nwork_max):  # type: ignore[no-untyped-def]
+    """The steps of :func:`run` once its records are set up; returns ``(status, failed_steps, t_decided)``.
+
+    Compiled without the runtime and with every per-step stage inlined (:func:`~._jit.jit_inline`):
+    a step makes no call but to the solver's own kernels.
+    """
+    prm = model.prm
+    geo = model.geo
+    state = live.state
+    z = live.z
+    sv = live.sv
+    led = live.led
+    h = clock.h
+    n_steps = clock.n_steps
     # early decision (kernels/decide.py): the window's start position, the energy scale
     # without the potential released, and the first time the bound decided
     decide = int(opts[O_DECIDE])
@@ -155,13 +180,8 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     decide_step = int(opts[O_DECIDE_STEP])
     t_end = start.t0 + n_steps * h
     eref0 = led[L_KE] + prm[P_MASS] * prm[P_G] + field_work_bound(prm, n_steps * h)
-    for i in range(3):
-        lp.xw[i] = state[i]
     t_decided = math.nan
     row = 0
-    record_row(rec, row, state, z, sv, led, lp.xoff)  # the start, with no contact summary yet
-    sv[SV_AREA] = start.area0
-    sv[SV_ANY_TOUCH] = 1.0 if start.touch0 else 0.0
     status = ST_OK
     failed_total = 0
     for step in range(n_steps):
@@ -190,12 +210,10 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
                     record_row(rec, rec.shape[0] - 1, state, z, sv, led, lp.xoff)
                     status = ST_DECIDED
                     break
-    # the final state and the last solution's positions in the caller's frame
-    recentre_undo(state, z, lp.xoff, geo.pstart)
     return status, failed_total, t_decided
 
 
-@jit
+@jit_inline
 def decide_falls_short(step, decide_step, prm, state, led, sv, lp, x, t_end, eref0, need):  # type: ignore[no-untyped-def]
     """The early decision after step ``step`` (:mod:`.decide`): at the window's start keep
     the position in ``lp.xw``; every ``DECIDE_EVERY`` steps after it, whether the uphill

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit
+from ._jit import jit, jit_inline
 from .contact import flight_clears, lift_off, norm3, plain_residual, set_flight
 from .geometry import QS_Q, quat_step, quat_to_rot
 from .guesses import (
@@ -81,7 +81,7 @@ def best_order(z, hist, pmax):  # type: ignore[no-untyped-def]
     return best
 
 
-@jit
+@jit_inline
 def extrapolate(z, zwarm, hist, sv, geo):  # type: ignore[no-untyped-def]
     """The warm start of a smooth contact step: the last solutions extrapolated (O(h^3), or
     a higher order where it predicted the last step better: ``sv[SV_ORDER]``, O_WARM), with
@@ -111,7 +111,7 @@ def extrapolate(z, zwarm, hist, sv, geo):  # type: ignore[no-untyped-def]
         off += B_FIXED + mk
 
 
-@jit
+@jit_inline
 def push_history(z, zwarm, hist, sv, warm_max):  # type: ignore[no-untyped-def]
     """A full-length contact step converged: its warm start ``zwarm`` (the last solution)
     joins the history, and the next step's extrapolation order is chosen (O_WARM >= 3)."""
@@ -136,7 +136,7 @@ def push_history(z, zwarm, hist, sv, warm_max):  # type: ignore[no-untyped-def]
     sv[SV_NCONT] = ncont + 1
 
 
-@jit
+@jit_inline
 def predict_flight(state, hc, model, opts, buf, scr, sv):  # type: ignore[no-untyped-def]
     """The free-flight prediction of a (sub-)step: ``(clear, flight, res)``. ``clear``: the
     explicit pose stays above the plane (else the flight solve is skipped); ``flight``: the
@@ -173,7 +173,7 @@ def predict_flight(state, hc, model, opts, buf, scr, sv):  # type: ignore[no-unt
     return clear, flight, res6
 
 
-@jit
+@jit_inline
 def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, clear, rescued, depth):  # type: ignore[no-untyped-def]  # noqa: C901
     """The strategy ladder (:data:`~.guesses.STRATEGIES`) from the warm start ``buf.zsave``.
 
@@ -252,7 +252,7 @@ def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, c
     return st, res, res_best, flight, flight_failed
 
 
-@jit
+@jit_inline
 def contact_warm_start(state, hc, model, buf, scr, touching):  # type: ignore[no-untyped-def]
     """Keep the warm start in ``buf.zsave``; blocks that were not touching get a landing guess."""
     z = buf.z
@@ -268,7 +268,7 @@ def contact_warm_start(state, hc, model, buf, scr, touching):  # type: ignore[no
         off += B_FIXED + mk
 
 
-@jit
+@jit_inline
 def solve_substep(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, rescued, depth):  # type: ignore[no-untyped-def]
     """Solve the (sub-)step ``hc`` from ``state`` (step data in ``scr.sc``, warm start in ``buf.z``).
 
