@@ -36,7 +36,7 @@ from tumblemc.testing import SNAP_HOP
 # - ``edge``: an edge whose second end lands while the first rests on the plane (a 3-D run of
 #   the paper robot, seed 2019 run 1 of the out-of-plane family, momentum form, t = 1.5439 s):
 #   the single ECP must move inside the edge while an impact stops the roll (guess 8);
-# - ``impact``: a fast frictional edge landing of the aluminum robot (issue 13 reproducer 1 at
+# - ``impact``: a fast frictional edge landing of the aluminum robot (the snap hop at
 #   dt / 4, t = 0.4024 s), where the impact reverses the slip so every sliding guess pushes
 #   friction the wrong way (guess 9, the rigid-body impact);
 # - ``line``: the aluminum robot resting on its long bottom edge, exactly level, while it rolls

@@ -351,7 +351,8 @@ def release_claims(rep: Report) -> None:
         ds, s, _ = timed_run(periods=2.0, adhesion_release=release, peel_length=length, **SNAP_HOP)
         rep.add(
             "P2",
-            f"issue 13 reproducer 1 (snap hop), adhesion_release={release}" + (f", peel_length={length:g} m" if release == "peel" else ""),
+            f"snap hop (flat aluminum cuboid, ten times the adhesion), adhesion_release={release}"
+            + (f", peel_length={length:g} m" if release == "peel" else ""),
             "progress ratio; highest centre of mass",
             f"{s['progress_ratio']:.3f}; {float(ds['position'].values[:, 2].max()) * 1e3:.2f} mm",
             "(report)",
