@@ -54,7 +54,7 @@ def test_segment_lengths_of_the_paper_shapes() -> None:
     ("shape", "strip", "face_fraction"),
     [
         ("cuboid", 0.32e-6, 0.32e-6),  # lies on its L x W face: face contact under both rules
-        ("curved", W * 400e-6, 0.05 * 0.436e-6),  # rolls on its outer arc: the 5%-of-the-arc rule of issue 13
+        ("curved", W * 400e-6, 0.05 * 0.436e-6),  # rolls on its outer arc: the 5%-of-the-arc rule (MODEL.md, "Forces")
         ("spiked", W * 300e-6, None),  # on a spike apex line
         ("spiked_ends", W * 600e-6, None),  # the bridging face on two apex lines
     ],
@@ -104,8 +104,8 @@ def test_peel_release_costs_the_work_of_adhesion_and_lowers_the_snap_hop() -> No
     """adhesion_release="peel" costs the work of adhesion.
 
     A released face's adhesion holds until it has done C x peel_length per released area, so
-    the adhesion does more negative work and, with a long enough peel, the hop of issue 13's
-    reproducer 1 is lower; the force law is the default.
+    the adhesion does more negative work and, with a long enough peel, the snap hop
+    (``tumblemc.testing.SNAP_HOP``) is lower; the force law is the default.
     """
     kw = {**SNAP_HOP, "duration_s": 2.0, "record_every": 10}
     force = tumblemc.simulate(**kw)  # type: ignore[arg-type]
