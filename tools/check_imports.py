@@ -148,22 +148,29 @@ def resolve(mod: Module, node: ast.ImportFrom) -> str:
     return ".".join(base + ([node.module] if node.module else []))
 
 
-def imports(mod: Module, known: set[str]) -> list[tuple[int, str, str | None]]:
+def imports(mod: Module, known: set[str], deferred: bool = True) -> list[tuple[int, str, str | None]]:
     """Every import of the module as ``(line, module, name)``.
 
     ``name`` is the name taken from ``module`` by ``from module import name`` when it is
-    not itself a module, else None. Imports anywhere in the file count (function level,
-    ``if TYPE_CHECKING``).
+    not itself a module, else None. Imports anywhere in the file count (``if
+    TYPE_CHECKING`` too); with ``deferred=False``, not those inside a function body.
     """
     out: list[tuple[int, str, str | None]] = []
-    for node in ast.walk(mod.tree):
-        if isinstance(node, ast.Import):
-            out += [(node.lineno, alias.name, None) for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            base = resolve(mod, node)
-            for alias in node.names:
-                sub = f"{base}.{alias.name}"
-                out.append((node.lineno, sub, None) if sub in known else (node.lineno, base, alias.name))
+
+    def visit(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if not deferred and isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+                continue
+            if isinstance(child, ast.Import):
+                out.extend((child.lineno, alias.name, None) for alias in child.names)
+            elif isinstance(child, ast.ImportFrom):
+                base = resolve(mod, child)
+                for alias in child.names:
+                    sub = f"{base}.{alias.name}"
+                    out.append((child.lineno, sub, None) if sub in known else (child.lineno, base, alias.name))
+            visit(child)
+
+    visit(mod.tree)
     return out
 
 
@@ -228,31 +235,13 @@ def check_module(mod: Module, known: set[str], rel: str) -> list[tuple[int, str]
     return found
 
 
-def module_level_imports(mod: Module, known: set[str]) -> set[str]:
-    """The package's modules that ``mod`` imports outside function bodies."""
-    out: set[str] = set()
-
-    def visit(node: ast.AST) -> None:
-        for child in ast.iter_child_nodes(node):
-            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
-                continue
-            if isinstance(child, ast.Import):
-                out.update(a.name for a in child.names if a.name in known)
-            elif isinstance(child, ast.ImportFrom):
-                base = resolve(mod, child)
-                for alias in child.names:
-                    sub = f"{base}.{alias.name}"
-                    out.add(sub if sub in known else base)
-            visit(child)
-
-    visit(mod.tree)
-    return (out & known) - {mod.name}
-
-
 def import_loops(modules: dict[str, Module]) -> list[list[str]]:
     """The import loops: strongly connected groups of modules (Tarjan), each sorted."""
     known = set(modules)
-    graph = {name: sorted(module_level_imports(mod, known)) for name, mod in modules.items()}
+    graph = {
+        name: sorted({target for _, target, _ in imports(mod, known, deferred=False) if target in known} - {name})
+        for name, mod in modules.items()
+    }
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []

@@ -8,11 +8,7 @@ from typing import Any
 import numpy as np
 
 from tumblemc.cli.common import (
-    PRESET_CHOICES,
-    PRESET_HELP,
-    SHAPE_CHOICES,
-    SHAPE_HELP,
-    add_set,
+    add_robot_and_output,
     parse_overrides,
     parse_vector,
     write_dataset,
@@ -35,11 +31,7 @@ def register(sub: Any) -> None:
         help="forward model: auto (default: the cuboid's closed form where it applies, checked by the simulator), simulate, closed-form",
     )
     p.add_argument("--samples", type=int, default=2000, help="posterior draws (default: 2000)")
-    p.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
-    p.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
-    add_set(p)
-    p.add_argument("--out", default="calib.nc", help="output netCDF path (default: calib.nc)")
-    p.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
+    add_robot_and_output(p, "calib.nc")
     p.set_defaults(run=run)
 
 

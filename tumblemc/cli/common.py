@@ -125,6 +125,15 @@ def parse_vector(name: str, text: str) -> tuple[float, float, float]:
     return (vals[0], vals[1], vals[2])
 
 
+def add_robot_and_output(p: argparse.ArgumentParser, out: str) -> None:
+    """Add ``--shape``, ``--preset``, ``--set``, ``--out`` (default ``out``) and ``--plot``: a bench test's or a fit's."""
+    p.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
+    p.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
+    add_set(p)
+    p.add_argument("--out", default=out, help=f"output netCDF path (default: {out})")
+    p.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
+
+
 def add_set(p: argparse.ArgumentParser) -> None:
     """Add the repeatable ``--set NAME=VALUE`` parameter override to ``p``."""
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="overrides", help="override a parameter (repeatable)")

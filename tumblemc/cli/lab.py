@@ -12,11 +12,7 @@ import argparse
 from typing import Any
 
 from tumblemc.cli.common import (
-    PRESET_CHOICES,
-    PRESET_HELP,
-    SHAPE_CHOICES,
-    SHAPE_HELP,
-    add_set,
+    add_robot_and_output,
     parse_overrides,
     parse_values,
     parse_vector,
@@ -31,13 +27,6 @@ def register(sub: Any) -> None:
     ls = lab.add_subparsers(dest="lab_command", metavar="PROTOCOL")
     ls.required = True
 
-    def base(p: argparse.ArgumentParser, out: str) -> None:
-        p.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
-        p.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
-        add_set(p)
-        p.add_argument("--out", default=out, help=f"output netCDF path (default: {out})")
-        p.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
-
     p = ls.add_parser("static-tilt", help="equilibrium tilt under a static field", description="Equilibrium tilt under a static field.")
     p.add_argument(
         "--field-mT", default="3:15:1", dest="field_mT", help="field magnitudes, mT: START:STOP:STEP or a list (default: 3:15:1)"
@@ -46,7 +35,7 @@ def register(sub: Any) -> None:
     p.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
     p.add_argument("--duration-s", type=float, default=0.6, help="simulated time per field, s (default: 0.6)")
     p.add_argument("--dt", type=float, default=1.25e-5, help="time step, s (default: 1.25e-5)")
-    base(p, "static_tilt.nc")
+    add_robot_and_output(p, "static_tilt.nc")
 
     p = ls.add_parser("critical-field", help="smallest field that tumbles (bisection)", description="Smallest field that tumbles.")
     p.add_argument("--freq-hz", type=float, default=1.0, help="field frequency, Hz (default: 1)")
@@ -56,19 +45,19 @@ def register(sub: Any) -> None:
     p.add_argument("--tol-mT", type=float, default=0.1, help="bracket width to stop at, mT (default: 0.1)")
     p.add_argument("--posterior", default=None, help="a calibration file: one bisection per posterior draw")
     p.add_argument("--samples", type=int, default=20, help="posterior draws to use with --posterior (default: 20)")
-    base(p, "critical_field.nc")
+    add_robot_and_output(p, "critical_field.nc")
 
     p = ls.add_parser("step-out", help="speed and phase lag against frequency", description="Speed and phase lag against frequency.")
     p.add_argument("--freq-hz", default="1,2,5,10,15,20,25,30,40", help="frequencies, Hz: START:STOP:STEP or a list")
     p.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="field magnitude, mT (default: 20)")
     p.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
-    base(p, "step_out.nc")
+    add_robot_and_output(p, "step_out.nc")
 
     p = ls.add_parser("steer", help="roll about x, then about y: the heading turn", description="Roll about x, then y: the turn.")
     p.add_argument("--freq-hz", type=float, default=1.75, help="field frequency, Hz (default: 1.75: no field jump with 1 s legs)")
     p.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="field magnitude, mT (default: 20)")
     p.add_argument("--leg-s", type=float, default=1.0, help="duration of each leg, s (default: 1)")
-    base(p, "steering.nc")
+    add_robot_and_output(p, "steering.nc")
     lab.set_defaults(run=run)
 
 

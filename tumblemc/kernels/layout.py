@@ -198,5 +198,4 @@ SV_MODE = 15  # contact mode of the last committed (sub-)step (R_MODE)
 SV_LNSUM = 16  # its normal force
 SV_SLIP = 17  # its slip speed
 SV_ECP = 18  # the offset of its first touching block in z (-1: none)
-SV_ADH = 19  # the adhesion force it implies for the next step
-N_SV = 20
+N_SV = 19

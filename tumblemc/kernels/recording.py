@@ -11,6 +11,7 @@ from .layout import (
     B_FIXED,
     N_LED,
     N_REC,
+    P_ADHC,
     P_O,
     P_T,
     R_ADH,
@@ -33,7 +34,6 @@ from .layout import (
     R_V,
     R_W,
     R_X,
-    SV_ADH,
     SV_AREA,
     SV_ECP,
     SV_FAIL,
@@ -43,6 +43,7 @@ from .layout import (
     SV_LOOSE,
     SV_MODE,
     SV_NIT,
+    SV_PEEL,
     SV_PEN,
     SV_RES,
     SV_SLIP,
@@ -100,10 +101,10 @@ def recentre_undo(state, z, xoff, pstart):  # type: ignore[no-untyped-def]
 
 
 @jit_inline
-def record_row(rec, row, state, z, sv, led, xoff):  # type: ignore[no-untyped-def]
+def record_row(rec, row, state, z, sv, led, xoff, prm):  # type: ignore[no-untyped-def]
     """Write record row ``row``: time, state and ECP (positions plus the origin's shift
-    ``xoff``, :func:`recentre`), the last commit's contact summary and the interval's
-    counters from the scalars ``sv`` (``SV_*``; :func:`~.contact.contact_state`) and the
+    ``xoff``, :func:`recentre`), the last commit's contact summary (and the adhesion it
+    implies, from ``prm``) and the interval's counters from the scalars ``sv`` (``SV_*``; :func:`~.contact.contact_state`) and the
     energy ledger ``led`` (:mod:`.ledger`)."""
     ecp_off = int(sv[SV_ECP])
     rec[row, R_T] = sv[SV_T]
@@ -115,7 +116,7 @@ def record_row(rec, row, state, z, sv, led, xoff):  # type: ignore[no-untyped-de
     for i in range(4):
         rec[row, R_Q + i] = state[3 + i]
     rec[row, R_LN] = sv[SV_LNSUM]
-    rec[row, R_ADH] = sv[SV_ADH]
+    rec[row, R_ADH] = prm[P_ADHC] * (sv[SV_AREA] + sv[SV_PEEL])  # applied on the next step
     rec[row, R_AREA] = sv[SV_AREA]
     rec[row, R_MODE] = sv[SV_MODE]
     rec[row, R_SLIP] = sv[SV_SLIP]

@@ -28,12 +28,10 @@ from .layout import (
     O_REFINE_HALVE,
     O_RESCUE,
     O_WARM,
-    P_ADHC,
     P_PEEL,
     ST_NAN,
     ST_OK,
     ST_STOPPED,
-    SV_ADH,
     SV_ANY_TOUCH,
     SV_AREA,
     SV_ECP,
@@ -123,11 +121,7 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
                 # a sub-step of a refined landing does not converge: halve it, at most
                 # O_REFINE_HALVE times within the refinement (the rest of the refined step goes
                 # on at that length, so the refinement stays bounded)
-                for i in range(n):
-                    z[i] = zsave[i]
-                hc *= 0.5
-                depth += 1
-                sv[SV_SUB] += 1
+                hc, depth = halve(z, zsave, sv, hc, depth)
                 ref_halved += 1
                 continue
             if st != ST_OK and refining:
@@ -141,11 +135,7 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
                 if rescue_on and not step_snap:
                     copy_frame(live_start, lp.rescue, N_SNAP_STEP)
                     step_snap = True
-                for i in range(n):
-                    z[i] = zsave[i]
-                hc *= 0.5
-                depth += 1
-                sv[SV_SUB] += 1
+                hc, depth = halve(z, zsave, sv, hc, depth)
                 continue
             if st != ST_OK and opts[O_IMPULSE] > 0.0 and res_best < math.inf:
                 # nothing converged at the smallest sub-step, but the best attempt balances the
@@ -212,11 +202,7 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
                         snap_remaining = remaining
                         snap_loose = step_loose
                         snap_impulse = step_impulse
-                    for i in range(n):
-                        z[i] = zsave[i]
-                    hc *= 0.5
-                    depth += 1
-                    sv[SV_SUB] += 1
+                    hc, depth = halve(z, zsave, sv, hc, depth)
                     continue
         if refining:
             # the refinement is kept only if its sub-steps' positive normal work stays below
@@ -272,6 +258,15 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
 
 
 @jit_inline
+def halve(z, zsave, sv, hc, depth):  # type: ignore[no-untyped-def]
+    """Solve the (sub-)step again as its first half, from its warm start: ``(hc / 2, depth + 1)``."""
+    for i in range(z.shape[0]):
+        z[i] = zsave[i]
+    sv[SV_SUB] += 1
+    return hc * 0.5, depth + 1
+
+
+@jit_inline
 def commit(step, h, t0, hc, remaining, free, have_ls, model, scr, lp, live):  # type: ignore[no-untyped-def]
     """Commit the (sub-)step ``hc`` solved in ``buf.z`` (``live.z``): the ledger, the state,
     the time, the contact state, the touching flags and the penetration. ``free``: solved
@@ -308,7 +303,6 @@ def commit(step, h, t0, hc, remaining, free, have_ls, model, scr, lp, live):  # 
     sv[SV_ECP] = ecp_off
     if prm[P_PEEL] > 0.5:
         sv[SV_PEEL], sv[SV_PEEL_LEFT] = peel_step(sv[SV_PEEL], sv[SV_PEEL_LEFT], area_old, area, hc, z, prm)
-    sv[SV_ADH] = prm[P_ADHC] * (area + sv[SV_PEEL])
     sv[SV_ANY_TOUCH] = 1.0 if mode > 0 else 0.0
     off = 6
     for kp in range(geo.pstart.shape[0] - 1):

@@ -149,7 +149,7 @@ def run(model, opts, start, clock, rec, buf):  # type: ignore[no-untyped-def]
     led[L_KE] = kinetic_energy(state, prm, lp.lw)
     for i in range(3):
         lp.xw[i] = state[i]
-    record_row(rec, 0, state, z, sv, led, lp.xoff)  # the start, with no contact summary yet
+    record_row(rec, 0, state, z, sv, led, lp.xoff, prm)  # the start, with no contact summary yet
     sv[SV_AREA] = start.area0
     sv[SV_ANY_TOUCH] = 1.0 if start.touch0 else 0.0
     status, failed_total, t_decided = march(model, opts, start, clock, rec, buf, scr, opts_set, lp, live, live_start, nwork_max)
@@ -200,14 +200,14 @@ def march(model, opts, start, clock, rec, buf, scr, opts_set, lp, live, live_sta
             break
         if (step + 1) % clock.record_every == 0 or step == n_steps - 1:
             row += 1
-            record_row(rec, row, state, z, sv, led, lp.xoff)
+            record_row(rec, row, state, z, sv, led, lp.xoff, prm)
             reset_counters(sv)
         if decide > 0 and step + 1 >= decide_step and step < n_steps - 1 and math.isnan(t_decided):
             if decide_falls_short(step, decide_step, prm, state, led, sv, lp, scr.tmp, t_end, eref0, decide_need):
                 t_decided = sv[SV_T]
                 if decide == 2:
                     # the last record row holds the state at the decision (rows between: unwritten)
-                    record_row(rec, rec.shape[0] - 1, state, z, sv, led, lp.xoff)
+                    record_row(rec, rec.shape[0] - 1, state, z, sv, led, lp.xoff, prm)
                     status = ST_DECIDED
                     break
     return status, failed_total, t_decided
