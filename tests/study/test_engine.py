@@ -367,15 +367,16 @@ def test_interrupted_fresh_run_resumes_over_an_old_result(reference: Path, tmp_p
 
 def test_a_batch_that_raises_is_recorded_row_by_row(monkeypatch: pytest.MonkeyPatch) -> None:
     import tumblemc.study.engine as eng
+    import tumblemc.study.tasks as tasks_mod
 
-    real = eng.simulate_rows
+    real = tasks_mod.simulate_rows
 
     def flaky(shape: str, rows: Any, grid: TimeGrid, full: Any = None) -> Any:
         if any(r.get("mu") == 0.123 for r in rows):
             raise RuntimeError("boom")
         return real(shape, rows, grid, full)
 
-    monkeypatch.setattr(eng, "simulate_rows", flaky)
+    monkeypatch.setattr(tasks_mod, "simulate_rows", flaky)
     rows = ({"preset": "paper", "freq_hz": 10.0, "mu": 0.3}, {"preset": "paper", "freq_hz": 10.0, "mu": 0.123})
     task = eng.Task("main", "k", "cuboid", (0, 1), rows, TimeGrid())
     _, run, out = eng.execute_task(task)
@@ -398,15 +399,16 @@ def test_a_critical_check_task_that_raises_keeps_every_column(monkeypatch: pytes
     The shards of a task are concatenated column by column.
     """
     import tumblemc.study.engine as eng
+    import tumblemc.study.tasks as tasks_mod
 
     def boom(*args: Any, **kw: Any) -> Any:
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(eng, "monotonicity_rows", boom)
+    monkeypatch.setattr(tasks_mod, "monotonicity_rows", boom)
     rows = ({"preset": "paper", "freq_hz": 10.0}, {"preset": "paper", "freq_hz": 10.0})
     task = eng.Task("check", "k", "cuboid", (3, 4), rows, TimeGrid(), "critical_incline", 0.0, 40.0, 5.0, (0.0, 20.0, 40.0), TimeGrid())
     _, run, out = eng.execute_task(task)
-    assert run.tolist() == [3, 4] and set(out) == set(eng.CHECK_COLUMNS)
+    assert run.tolist() == [3, 4] and set(out) == set(tasks_mod.CHECK_COLUMNS)
     assert out["grid_status"].shape == (2, 3) and np.all(out["grid_status"] == 3)
     assert out["pair_status"].shape == (2, 2) and np.all(out["pair_status"] == 3)
 

@@ -449,12 +449,18 @@ def test_smoke_toml() -> None:
 
 
 def test_default_toml() -> None:
+    """The main job is a threshold study; default_grid.toml is the same study on every incline."""
     c = load_config(STUDIES / "default.toml")
     assert c.shapes == ("cuboid", "spiked", "spiked_ends", "curved") and c.presets == ("paper", "aluminum")
     assert c.incline_deg == tuple(float(x) for x in range(0, 61, 5))
-    assert c.samples == 200 and c.n_runs == 4 * 2 * 13 * 200
+    assert c.mode == "threshold" and c.threshold_axis == "incline_deg"
+    assert c.samples == 200 and c.n_runs == 4 * 2 * 200
     assert {u.param: u.to_dict() for u in c.uncertain} == DEFAULT_UNCERTAIN
-    assert len(cells(c)) == 4 * 2 * 13
+    assert len(cells(c)) == 4 * 2
+    g = load_config(STUDIES / "default_grid.toml")
+    assert g.mode == "grid" and g.n_runs == 4 * 2 * 13 * 200 and len(cells(g)) == 4 * 2 * 13
+    same = ("shapes", "presets", "incline_deg", "field_mT", "freq_hz", "samples", "seed", "uncertain", "check", "periods", "dt")
+    assert all(getattr(c, k) == getattr(g, k) for k in same)
 
 
 def test_sampler_slots_are_append_only() -> None:

@@ -8,6 +8,7 @@ shape and substrate (:func:`success_table`).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -87,8 +88,27 @@ def study_header(cfg: Any, path: Path, where: str) -> str:
     axes = [("shape", cfg.shapes), ("substrate", cfg.presets), ("field", cfg.field_mT), ("frequency", cfg.freq_hz)]
     if cfg.mode == "grid":
         axes.insert(2, ("incline", cfg.incline_deg))
+    if cfg.mode == "threshold":
+        m = len(cfg.axis_values)
+        axes = [a for a in axes if a[0] != {"field_mT": "field", "freq_hz": "frequency"}.get(cfg.threshold_axis)]
+        # a search takes about log2(m + 1) runs (fewer from a pilot's start); an audit sample m, plus 2 at dt / dt_factor
+        work = (n * math.log2(m + 1) + n_check * (m + 2 * cfg.check.dt_factor)) * sim_s * WALL_PER_SIM_S
     dims = " x ".join(f"{len(v)} {_plural(k, len(v))}" for k, v in axes if len(v) > 1 or k in ("shape", "substrate"))
     upto = "up to " if cfg.precision is not None else ""
+    if cfg.mode == "threshold":
+        grid = ", ".join(f"{v:g}" for v in cfg.axis_values)
+        start = "they give each cell its search start" if cfg.threshold_start == "pilot" else "the searches bisect"
+        return "\n".join(
+            [
+                f"study {cfg.name}: {n:,} sampled robots = {n_cells} {_plural('cell', n_cells)} ({dims}) x {cfg.samples} "
+                f"{_plural('sample', cfg.samples)}, each asked for its threshold on the {cfg.threshold_axis} grid "
+                f"[{grid}] ({m} values) by a search of about 2-4 runs, not {m}",
+                f"  audit first: {n_check} of the samples simulated at every grid value to the end (and around their first "
+                f"failure at dt/{cfg.check.dt_factor}); {start}",
+                f"  on {where}; output {path}",
+                f"  rough estimate {_duration(work)} of single-core time (the progress bar counts samples; its ETA measures the real rate)",
+            ]
+        )
     lines = [
         f"study {cfg.name}: {upto}{n:,} runs = {n_cells} {_plural('cell', n_cells)} ({dims}) x {upto}{cfg.samples} "
         f"{_plural('sample', cfg.samples)}"

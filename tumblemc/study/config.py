@@ -19,9 +19,11 @@ key                  meaning
 ===================  ===================================================================
 name*                identifier, ``[A-Za-z0-9_-]+``
 description          free text
-mode                 ``"grid"`` (default: every run is one incline of the grid) or
-                     ``"critical_incline"`` (every run is one parameter sample; the
-                     engine bisects on the incline for the steepest one it climbs)
+mode                 ``"grid"`` (default: one run per incline of the grid), ``"threshold"``
+                     or ``"critical_incline"`` (one run per sample): study/modes.py
+threshold_axis       threshold only: ``"incline_deg"`` (default), ``"field_mT"`` or
+                     ``"freq_hz"``: its list is the grid searched (study/threshold.py)
+threshold_start      threshold only: ``"pilot"`` (default) or ``"bisect"``
 incline_range        critical_incline only: ``{min, max}`` degrees (default 0, 60)
 incline_tol          critical_incline only: bisection tolerance, degrees (default 0.5)
 shapes*              list of shape names (:data:`tumblemc.shapes.SHAPES`)
@@ -145,7 +147,7 @@ from __future__ import annotations
 import re
 import tomllib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from dataclasses import field as dc_field
 from os import PathLike
 from pathlib import Path
@@ -175,22 +177,23 @@ from tumblemc.study.checks import (
 )
 from tumblemc.study.distributions import DEFAULT_UNCERTAIN, Uncertain, nominal_value, parse_uncertain
 from tumblemc.study.fieldcfg import FieldConfig, parse_field
+from tumblemc.study.modes import (  # noqa: F401  (THRESHOLD_AXES, THRESHOLD_STARTS re-exported)
+    GRID_DIMS,
+    MODES,
+    THRESHOLD_AXES,
+    THRESHOLD_STARTS,
+    check_threshold_uncertain,
+    parse_threshold,
+)
 from tumblemc.study.posterior import Posterior, split_posterior
 
 #: version of the seed derivation and sampler mapping; part of every config hash
 SAMPLING_SCHEME = 1
 
 
-MODES = ("grid", "critical_incline")
-
-
 SAMPLERS = ("mc", "sobol", "lhs")
-
-
 TORQUES = TORQUE_OPTIONS  # the simulator's torque options
 ROTATIONS = ROTATION_OPTIONS  # and rotation rows
-
-
 MAX_SAMPLES = 1_000_000
 
 
@@ -227,6 +230,8 @@ class StudyConfig:
     incline_range: tuple[float, float] = (0.0, 60.0)
     incline_tol: float = 0.5
     mode: str = "grid"
+    threshold_axis: str = "incline_deg"  # threshold mode: the axis searched (THRESHOLD_AXES)
+    threshold_start: str = "pilot"  # threshold mode: THRESHOLD_STARTS
     periods: float = 2.0
     transient_periods: float = 1.0
     dt: float | None = None
@@ -246,7 +251,14 @@ class StudyConfig:
     @property
     def cell_dims(self) -> tuple[str, ...]:
         """Names of the coordinates that identify a cell in this mode."""
+        if self.mode == "threshold":
+            return tuple(d for d in GRID_DIMS if d != self.threshold_axis)
         return _MODES[self.mode].dims
+
+    @property
+    def axis_values(self) -> tuple[float, ...]:
+        """Threshold mode: the grid of the searched axis, ascending."""
+        return tuple(getattr(self, self.threshold_axis))
 
     @property
     def uncertain_names(self) -> tuple[str, ...]:
@@ -277,18 +289,23 @@ def _grid_cells(c: StudyConfig) -> list[dict[str, Any]]:
     ]
 
 
+def _cells_without(c: StudyConfig, axis: str) -> list[dict[str, Any]]:
+    return [{d: v for d, v in cell.items() if d != axis} for cell in _grid_cells(replace(c, **{axis: (0.0,)}))]
+
+
 def _critical_cells(c: StudyConfig) -> list[dict[str, Any]]:
-    return [
-        {"shape": s, "substrate": p, "field_mT": b, "freq_hz": f}
-        for s in c.shapes
-        for p in c.presets
-        for b in c.field_mT
-        for f in c.freq_hz
-    ]
+    return _cells_without(c, "incline_deg")
+
+
+def _threshold_cells(c: StudyConfig) -> list[dict[str, Any]]:
+    return _cells_without(c, c.threshold_axis)
 
 
 _MODES: dict[str, _Mode] = {
-    "grid": _Mode(("shape", "substrate", "incline_deg", "field_mT", "freq_hz"), ("incline_deg",), _grid_cells),
+    "grid": _Mode(GRID_DIMS, ("incline_deg",), _grid_cells),
+    # one run = one parameter sample; the engine searches the grid of threshold_axis for
+    # the sample's threshold (study/threshold.py); cell_dims are the other axes
+    "threshold": _Mode(GRID_DIMS, ("incline_deg", "threshold_axis", "threshold_start"), _threshold_cells),
     # one run = one parameter sample; the engine bisects on the incline within
     # incline_range to incline_tol; incline_deg is the grid of the monotonicity check
     "critical_incline": _Mode(
@@ -382,6 +399,8 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
                 "at least 2 there: they are the grid of the monotonicity check",
             )
 
+    axis, start, (incline, field_mT, freq_hz) = parse_threshold(d, mode, (incline, field_mT, freq_hz))
+
     periods = check_num("periods", d.get("periods", 2.0), 2.0, RANGES["periods"].hi)
     transient = check_num("transient_periods", d.get("transient_periods", 1.0), 0.0, 1e6)
     if transient > periods - 1.0:
@@ -428,6 +447,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     if posterior is not None and sampler != "mc":
         raise ConfigError("sampler", f"sampler={sampler!r} does not sample a posterior (allowed: mc with uncertain.posterior)")
 
+    check_threshold_uncertain(mode, axis, uncertain)
     cfg = StudyConfig(
         name=name,
         shapes=shapes,
@@ -442,6 +462,8 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
         incline_range=(inc_min, inc_max),
         incline_tol=inc_tol,
         mode=mode,
+        threshold_axis=axis,
+        threshold_start=start,
         periods=periods,
         transient_periods=transient,
         dt=dt,

@@ -152,7 +152,9 @@ def design(config: StudyConfig) -> xr.Dataset:
         sl = slice(c * n, (c + 1) * n)
         u = _cell_uniforms(config, cell)
         for j, unc in enumerate(config.uncertain):
-            nom = nominal_value(unc.param, cell["substrate"], cell["field_mT"])
+            nom = nominal_value(
+                unc.param, cell["substrate"], cell.get("field_mT", config.field_mT[0])
+            )  # threshold_axis field_mT: no field_mT uncertainty
             dist = cache.get((unc.param, nom))
             if dist is None:
                 dist = cache[(unc.param, nom)] = unc.resolve(nom)
@@ -278,8 +280,8 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
     """The study's time grid of every run (``fine``: at ``dt / [check].dt_factor``, for the numerical check).
 
     A run stops at its first failed step (``max_failed_steps=1``), and once its verdict
-    can only be failure when ``cfg.early_decision`` (grid mode only, where the dt-check
-    runs audit the bound; not at the finer dt).
+    can only be failure when ``cfg.early_decision`` (grid and threshold modes, where the
+    check runs audit the bound; not at the finer dt).
     """
     dt = study_dt(cfg)
     if fine:
@@ -294,7 +296,7 @@ def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
         rotation=cfg.rotation,
         success_ratio=cfg.success_ratio,
         max_failed_steps=1,
-        early_decision=cfg.early_decision and cfg.mode == "grid" and not fine,
+        early_decision=cfg.early_decision and cfg.mode in ("grid", "threshold") and not fine,
     )
 
 

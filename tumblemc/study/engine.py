@@ -22,14 +22,12 @@ Guarantees
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import shutil
 import sys
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -47,17 +45,17 @@ from tumblemc.io import (
     result_attrs,
     write_result,
 )
-from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
-from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_name
 from tumblemc.study.adaptive import AdaptiveResult, adaptive_attrs, restrict, run_adaptive
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
 from tumblemc.study.config import StudyConfig, load_config
-from tumblemc.study.critical import bisect_rows, monotonicity_rows
-from tumblemc.study.design import batch_row, check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
+from tumblemc.study.design import check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
 from tumblemc.study.identity import config_hash, config_to_json
 from tumblemc.study.progress import Progress
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
+from tumblemc.study.tasks import Task, design_rows, execute_task, one_run_tasks  # noqa: F401  (re-exported)
+from tumblemc.study.threshold import difficulty_order, direct_passes, pilot_starts, sample_rows
+from tumblemc.study.threshold_file import assemble_threshold, threshold_maps
 from tumblemc.study.twins import TWIN_KINDS, outside_tol, twin_row, with_twins
 
 
@@ -69,124 +67,14 @@ class StudyResult(NamedTuple):
     path: Path
 
 
-@dataclass(frozen=True)
-class Task:
-    """One batch: runs of one shape on one time grid (a dask task)."""
-
-    kind: str  # "main" or "check"
-    key: str
-    shape: str
-    run: tuple[int, ...]
-    rows: tuple[RunRow, ...]
-    grid: TimeGrid
-    mode: str = "grid"
-    # critical_incline mode: incline range and tolerance, check grid, fine time grid
-    lo: float = 0.0
-    hi: float = 0.0
-    tol: float = 0.0
-    inclines: tuple[float, ...] = ()
-    fine: TimeGrid | None = None
-    full: tuple[bool, ...] = ()  # rows run to the end despite grid.early_decision (the dt-check runs: the audit)
-
-
-def one_run_tasks(task: Task) -> list[Task]:
-    """``task`` split into one task per run.
-
-    Each keeps its row and its ``full`` flag and gets its own key (:func:`plan`'s form for
-    a batch of one).
-    """
-    stem = task.key.rsplit("-", 2)[0]
-    return [
-        dataclasses.replace(task, key=f"{stem}-{r:09d}-1", run=(r,), rows=(row,), full=task.full[k : k + 1])
-        for k, (r, row) in enumerate(zip(task.run, task.rows, strict=True))
-    ]
-
-
-def execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
-    """Run one batch (the function every dask task calls).
-
-    A batch that raises is rerun row by row; a row that still raises is recorded with status
-    ``error`` and the message, so one bad run never stops a study.
-    """
-    try:
-        return _execute_task(task)
-    except Exception:  # noqa: BLE001 - any failure of a run is data, not a crash
-        if len(task.run) == 1:
-            return _error_result(task)
-        parts = [execute_task(t) for t in one_run_tasks(task)]
-        return task.kind, np.asarray(task.run, dtype=np.int64), {k: np.concatenate([p[2][k] for p in parts]) for k in parts[0][2]}
-
-
-def _error_result(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
-    import traceback
-
-    msg = traceback.format_exc(limit=2).strip().splitlines()[-1]
-    cols = CRITICAL_OUTCOMES if (task.mode != "grid" and task.kind == "main") else OUTCOMES
-    out: dict[str, np.ndarray] = {}
-    for k, dt in cols.items():
-        out[k] = np.full(1, np.nan) if np.dtype(dt).kind == "f" else np.zeros(1, dt)
-    out["status"][:] = 3
-    out["error"] = np.array([f"internal error: {msg}"], dtype=object)
-    if task.mode != "grid" and task.kind == "check":  # the check columns of a critical study
-        out = {
-            k: np.full((1, len(task.inclines) if width == "grid" else 2), fill, dtype) for k, (dtype, width, fill) in CHECK_COLUMNS.items()
-        }
-    return task.kind, np.asarray(task.run, dtype=np.int64), out
-
-
-def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
-    run = np.asarray(task.run, dtype=np.int64)
-    if task.mode == "grid":
-        return task.kind, run, simulate_rows(task.shape, task.rows, task.grid, task.full or None)
-    if task.kind == "main":
-        return task.kind, run, bisect_rows(task.shape, task.rows, task.grid, task.lo, task.hi, task.tol)
-    return task.kind, run, _critical_check(task)
-
-
-def _critical_check(task: Task) -> dict[str, np.ndarray]:
-    """Check runs of a critical-incline study.
-
-    Verdicts at every grid incline (the monotonicity check) and, at the two grid inclines
-    around the first failure, the verdicts at the finer dt (the numerical check).
-    """
-    th = np.asarray(task.inclines, dtype=float)
-    mono = monotonicity_rows(task.shape, task.rows, task.grid, th)
-    n = len(task.rows)
-    # th is sorted (plan): the pair is the last climbing and the first failing grid incline
-    ij = np.zeros((n, 2), np.int64)
-    for i in range(n):
-        fails = np.flatnonzero(mono["climbed"][i] == 0)
-        k = int(fails[0]) if len(fails) else len(th) - 1
-        ij[i] = (max(k - 1, 0), k)
-    pair = th[ij]
-    assert task.fine is not None
-    fine = simulate_rows(
-        task.shape, [cast(RunRow, dict(r, incline_deg=float(t))) for r, p in zip(task.rows, pair, strict=True) for t in p], task.fine
-    )
-    rows_i = np.arange(n)[:, None]
-    return {
-        "grid_climbed": mono["climbed"],
-        "grid_status": mono["status"],
-        "pair_incline": pair,
-        "pair_climbed": mono["climbed"][rows_i, ij].astype(np.int8),
-        "pair_status": mono["status"][rows_i, ij].astype(np.int8),
-        "pair_climbed_fine": fine["climbed"].reshape(n, 2),
-        "pair_status_fine": fine["status"].reshape(n, 2),
-    }
-
-
-def design_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[RunRow]:
-    """:func:`tumblemc.study.design.batch_row` of runs ``idx`` (columns read once, not per run)."""
-    names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
-    cols = {k: des[k].values for k in names if k in des.variables}
-    return [batch_row(cfg, {k: v[i] for k, v in cols.items()}) for i in idx]
-
-
-def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str) -> list[Task]:
+def plan(
+    cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str, starts: dict[str, int] | None = None
+) -> list[Task]:
     """Batches of the runs ``todo``: runs of one cell (one shape and time grid) together.
 
     ``kind``: "main", "check" (at the finer dt) or one of :data:`TWIN_KINDS` (grid mode:
-    the magnetisation changed, simulated to the end).
+    the magnetisation changed, simulated to the end). ``starts``: threshold mode, the
+    search start of each cell (by cell key; absent: plain bisection).
     """
     grid = grid_of(cfg, fine=(kind == "check" and cfg.mode == "grid"))
     fine = grid_of(cfg, fine=True)
@@ -204,6 +92,26 @@ def plan(cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_s
             stop += 1
         idx = todo[start:stop]
         key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
+        if cfg.mode == "threshold":
+            st = tuple((starts or {}).get(str(cellkey[i]), -1) for i in idx)
+            arows = tuple(sample_rows(cfg, des, idx))
+            tasks.append(
+                Task(
+                    kind,
+                    key,
+                    str(shapes[idx[0]]),
+                    tuple(int(i) for i in idx),
+                    (),
+                    grid,
+                    cfg.mode,
+                    fine=fine,
+                    axis_rows=arows,
+                    start=st,
+                    cfg=cfg,
+                )
+            )
+            start = stop
+            continue
         rows = tuple(design_rows(cfg, des, idx))
         if kind in TWIN_KINDS:
             rows = tuple(twin_row(r, TWIN_KINDS[kind], cfg.check.twin_rel) for r in rows)
@@ -424,6 +332,11 @@ def _run_locked(  # noqa: C901
             check_idx = used[check_mask(cfg, des["run_key"].values[used])]
             bar.expect(kept.simulated + len(check_idx))
             simulate("check", np.setdiff1d(check_idx, _done(store, "check", progress)))
+        elif cfg.mode == "threshold":
+            # the audit's sweeps first: they are the pilot that starts each cell's searches
+            _execute(balance(plan(cfg, des, "check", todo_check, bs, chash), slots()), client, on_result, mif)
+            starts = search_starts(cfg, des, store, progress)
+            _execute(balance(plan(cfg, des, "main", todo_main, bs, chash, starts), slots()), client, on_result, mif)
         else:
             # the check runs (at dt / dt_factor) last, as the progress bar's rate expects; their
             # last batches run by run
@@ -435,7 +348,9 @@ def _run_locked(  # noqa: C901
             if not (len(redo_main) or len(redo_check)):
                 break
             bar.update(-(len(redo_main) + len(redo_check)))
-            _execute(plan(cfg, des, "main", redo_main, bs, chash) + plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
+            _execute(plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
+            starts = search_starts(cfg, des, store, progress) if cfg.mode == "threshold" else None
+            _execute(plan(cfg, des, "main", redo_main, bs, chash, starts), client, on_result, mif)
         main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)  # read once: twins add their own kinds
         store.require([(used, main), (check_idx, check)])
         twin_idx = outside_tol(cfg, main, check, check_idx)
@@ -453,6 +368,9 @@ def _run_locked(  # noqa: C901
     if cfg.mode == "grid":
         runs = assemble_runs(cfg, des, main, check_idx, check)
         maps = make_maps(runs, level=cfg.ci_level, method=cfg.ci)
+    elif cfg.mode == "threshold":
+        runs = assemble_threshold(cfg, des, main, check_idx, check)
+        maps = threshold_maps(runs, level=cfg.ci_level, method=cfg.ci)
     else:
         runs = assemble_critical(cfg, des, main, check_idx, check)
         lo, hi = cfg.incline_range
@@ -473,6 +391,20 @@ def _run_locked(  # noqa: C901
         _say(True, f"the damaged shards set aside are in {keep}")
     store.remove()
     return StudyResult(runs, maps, path)
+
+
+def search_starts(cfg: StudyConfig, des: xr.Dataset, store: ShardStore, progress: bool) -> dict[str, int]:
+    """Threshold mode: each cell's search start from its check samples' sweeps (``threshold_start = "pilot"``)."""
+    if cfg.threshold_start != "pilot":
+        return {}
+    chk = _read(store, "check")
+    if not len(chk.get("run", ())):
+        return {}
+    order = difficulty_order(cfg)
+    j = direct_passes(chk["grid_climbed"][:, order], chk["grid_status"][:, order])
+    status = np.where(j >= 0, 0, 1)
+    ck = des["cell_key"].values
+    return pilot_starts(j, status, ck[chk["run"]], ck)
 
 
 def _say(enabled: bool, msg: str) -> None:

@@ -72,9 +72,11 @@ def _canonical(config: StudyConfig) -> dict[str, Any]:
     if d.pop("posterior") is not None:  # the file (where) and its sha256 (what)
         d["uncertain"]["posterior"] = config.posterior.to_dict() if config.posterior else None
     d["incline_range"] = {"min": config.incline_range[0], "max": config.incline_range[1]}
-    if config.mode == "grid":  # keys only the critical-incline mode takes
+    if config.mode != "critical_incline":  # keys only the critical-incline mode takes
         del d["incline_range"], d["incline_tol"]
-    else:  # the sensitivity twins are the grid mode's (study/twins.py)
+    if config.mode != "threshold":  # and the threshold mode
+        del d["threshold_axis"], d["threshold_start"]
+    if config.mode != "grid":  # the sensitivity twins are the grid mode's (study/twins.py)
         del d["check"]["twin_rel"]
     return d
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from tumblemc.analysis.words import check_words, early_words
+from tumblemc.analysis.words import check_words, early_words, threshold_words
 from tumblemc.io import ShardStore, open_result, read_study_json, result_attrs
 from tumblemc.study.config import load_config
 from tumblemc.study.design import check_subset, design
@@ -116,4 +116,7 @@ def _complete_status(runs: xr.Dataset, path: Path) -> dict[str, Any]:
     words = early_words(runs)
     if words:
         out["early_decisions"] = words
+    words = threshold_words(runs)
+    if words:
+        out["threshold_search"] = words
     return out

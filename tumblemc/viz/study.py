@@ -252,8 +252,9 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
         Its maps, from :func:`tumblemc.analysis.maps.maps`.
     out_dir : path-like
         Folder for ``success_heatmap.png``, ``success_curves.png`` and
-        ``ratio_distribution.png`` (a critical-incline study: ``success_curves.png`` and
-        ``critical_incline_distribution.png``).
+        ``ratio_distribution.png`` (a threshold study: ``threshold_distribution.png``, after
+        the heatmap and curves when the axis is the incline; a critical-incline study:
+        ``success_curves.png`` and ``critical_incline_distribution.png``).
 
     Returns
     -------
@@ -263,7 +264,12 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    if runs.attrs.get("mode") == "critical_incline":  # one run per sample, no incline grid
+    if runs.attrs.get("mode") == "threshold":
+        note = _threshold_note(runs)
+        figures = [("threshold_distribution.png", plot_threshold_distribution(runs))]
+        if runs.attrs.get("threshold_axis") == "incline_deg":
+            figures = [("success_heatmap.png", plot_success_heatmap(maps)), ("success_curves.png", plot_success_curves(maps)), *figures]
+    elif runs.attrs.get("mode") == "critical_incline":  # one run per sample, no incline grid
         a = runs.attrs
         note: str | None = (
             f"monotonicity check: {a.get('monotonicity_checked_samples', 0)} samples, disagreement rate "
@@ -380,4 +386,74 @@ def plot_critical_vs_grid(crit_maps: xr.Dataset, grid_maps: xr.Dataset, path: st
         ax.legend(fontsize=8)
     if path is not None:
         fig.savefig(path, dpi=130)
+    return fig
+
+
+_AXIS_WORDS = {
+    "incline_deg": ("critical incline", "deg"),
+    "field_mT": ("critical field", "mT"),
+    "freq_hz": ("highest frequency climbed", "Hz"),
+}
+
+
+def _threshold_note(runs: xr.Dataset) -> str:
+    a = runs.attrs
+    sims, grid = int(a.get("simulations_total", 0)), int(a.get("simulations_grid_equivalent", 0))
+    parts = [f"threshold search: {sims:,} simulations for {runs.sizes['run']:,} samples ({grid:,} on the full grid)"]
+    if "audit_checked_samples" in a:
+        parts.append(
+            f"audit: {int(a['audit_checked_samples'])} samples simulated at every grid value, "
+            f"{int(a['audit_nonmonotone_samples'])} non-monotone, {int(a['audit_disagreements'])} of "
+            f"{int(a['audit_compared_verdicts'])} verdicts differ from the threshold's, "
+            f"{int(a['audit_early_stopped_climbed'])} early stops contradicted"
+        )
+    return "; ".join(parts)
+
+
+def plot_threshold_distribution(runs: xr.Dataset, level: float = 0.95, path: str | os.PathLike[str] | None = None) -> Figure:
+    """Empirical distribution of the per-sample thresholds of a threshold study, with a simultaneous band.
+
+    One panel per substrate (rows) and shape (columns): the share of valid samples that
+    pass each grid value (a step function of the grid: ``P(success)`` of the maps) and its
+    simultaneous ``level`` band from the Dvoretzky-Kiefer-Wolfowitz inequality
+    (``+- sqrt(ln(2 / (1 - level)) / (2 n))``, Massart's constant: the whole curve lies in
+    it with probability ``level``), with the number of samples at each threshold as bars.
+    """
+    ax_name = str(runs.attrs["threshold_axis"])
+    word, units = _AXIS_WORDS[ax_name]
+    vals = runs[ax_name].values.astype(float)
+    subs = sorted({str(v) for v in runs["substrate"].values})
+    shapes = sorted({str(v) for v in runs["shape"].values})
+    fig, axes = panel_grid(len(subs), len(shapes), 2.6, 2.2)
+    verdict = runs["grid_verdict"].values
+    width = 0.8 * float(np.min(np.diff(vals))) if len(vals) > 1 else 1.0
+    for r, sub in enumerate(subs):
+        for c, shp in enumerate(shapes):
+            ax = axes[r, c]
+            m = (runs["substrate"].values == sub) & (runs["shape"].values == shp)
+            ok = m & (runs["status"].values == 0)
+            n = int(ok.sum())
+            if n:
+                share = (verdict[ok] == 1).mean(axis=0)
+                eps = float(np.sqrt(np.log(2.0 / (1.0 - level)) / (2.0 * n)))
+                ax.fill_between(vals, np.clip(share - eps, 0, 1), np.clip(share + eps, 0, 1), step="mid", color="C0", alpha=0.25, lw=0)
+                ax.step(vals, share, where="mid", color="C0", lw=1.6)
+                thr = runs["threshold"].values[ok]
+                counts = np.array([np.count_nonzero(thr == v) for v in vals]) / n
+                ax.bar(vals, counts, width=width, color="0.55", alpha=0.6)
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_title(f"{shp} on {sub} (n = {n}, invalid {int(np.count_nonzero(m & ~ok))})", fontsize=8)
+            ax.grid(alpha=0.3)
+            if r == len(subs) - 1:
+                ax.set_xlabel(f"{ax_name.split('_')[0]} ({units})")
+            if c == 0:
+                ax.set_ylabel("share of samples")
+    fig.suptitle(
+        textwrap.fill(
+            f"line: share of samples passing each grid value; band: {level:.0%} simultaneous (DKW); bars: share whose {word} is that value",
+            max(40, int(fig.get_figwidth() / 0.075)),
+        ),
+        fontsize=9,
+    )
+    save_figure(fig, path)
     return fig

@@ -1,0 +1,197 @@
+"""Threshold studies: the search on grid indices against an oracle, the config, and small real studies."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import tumblemc.study.threshold as TH
+from tumblemc.io import open_result
+from tumblemc.model.rows import TimeGrid
+from tumblemc.study.config import ConfigError, load_config
+from tumblemc.study.design import grid_of
+from tumblemc.study.engine import run_study
+from tumblemc.study.identity import config_hash, config_to_json
+
+ROOT = Path(__file__).resolve().parents[2]
+SMOKE = ROOT / "studies" / "smoke.toml"
+
+
+def oracle(monkeypatch: pytest.MonkeyPatch, verdict: Any, invalid: set[tuple[int, int]] = frozenset()) -> list[tuple[int, int]]:
+    """Replace the simulator: row ``{"i": i, "k": k}`` climbs when ``verdict(i, k)``; ``invalid`` pairs fail their step."""
+    calls: list[tuple[int, int]] = []
+
+    def fake(shape: str, rows: list[dict[str, int]], grid: TimeGrid, full: Any = None) -> dict[str, np.ndarray]:
+        n = len(rows)
+        out = {
+            k: np.zeros(n, np.int64)
+            for k in ("status", "climbed", "decided_early", "substeps", "failed_steps", "loose_steps", "impulse_steps")
+        }
+        out["newton_iterations"] = np.ones(n)
+        out["error"] = np.full(n, "", dtype=object)
+        for j, r in enumerate(rows):
+            calls.append((r["i"], r["k"]))
+            if (r["i"], r["k"]) in invalid:
+                out["status"][j] = 1
+            else:
+                out["climbed"][j] = int(verdict(r["i"], r["k"]))
+        return out
+
+    monkeypatch.setattr(TH, "simulate_rows", fake)
+    return calls
+
+
+def rows_for(n: int, m: int) -> list[list[dict[str, int]]]:
+    return [[{"i": i, "k": k} for k in range(m)] for i in range(n)]
+
+
+@pytest.mark.parametrize("m", [1, 2, 5, 13])
+def test_every_threshold_from_every_start_is_found_exactly(monkeypatch: pytest.MonkeyPatch, m: int) -> None:
+    """Monotone verdicts: the search returns the exact count of grid values passed, whatever its start."""
+    cases = list(itertools.product(range(m + 1), range(-1, m + 1)))  # (true J, start)
+    calls = oracle(monkeypatch, lambda i, k: k < cases[i][0])
+    out = TH.search_rows("cuboid", rows_for(len(cases), m), TimeGrid(), [s for _, s in cases])
+    assert out["n_pass"].tolist() == [j for j, _ in cases]
+    assert np.all(out["fail_rank"] - out["pass_rank"] == 1)
+    assert out["censored"].tolist() == [-1 if j == 0 else 1 if j == m else 0 for j, _ in cases]
+    assert len(calls) == out["n_simulations"].sum()
+    # never a grid value twice for a sample, never outside the grid
+    per = {}
+    for i, k in calls:
+        assert 0 <= k < m
+        per.setdefault(i, []).append(k)
+    assert all(len(v) == len(set(v)) for v in per.values())
+    bisect_bound = int(np.ceil(np.log2(m + 1)))
+    for c, (j, s) in enumerate(cases):
+        if s < 0:
+            assert out["n_simulations"][c] <= bisect_bound
+        if s == j:  # an exact guess: the value below and the value above it at most
+            assert out["n_simulations"][c] <= 2
+
+
+def test_a_guess_far_off_costs_about_two_bisections(monkeypatch: pytest.MonkeyPatch) -> None:
+    m = 13
+    cases = list(itertools.product(range(m + 1), range(m + 1)))
+    oracle(monkeypatch, lambda i, k: k < cases[i][0])
+    out = TH.search_rows("cuboid", rows_for(len(cases), m), TimeGrid(), [s for _, s in cases])
+    assert out["n_pass"].tolist() == [j for j, _ in cases]
+    assert out["n_simulations"].max() <= 2 * int(np.ceil(np.log2(m + 1)))
+
+
+def test_an_invalid_probe_stops_the_search_and_keeps_what_is_known(monkeypatch: pytest.MonkeyPatch) -> None:
+    m = 13  # true J = 8; plain bisection probes 6 (pass), then 9 (fail), then 7: invalid there
+    oracle(monkeypatch, lambda i, k: k < 8, invalid={(0, 7)})
+    out = TH.search_rows("cuboid", rows_for(1, m), TimeGrid(), [-1])
+    assert out["status"][0] == 1 and out["n_pass"][0] == -1
+    assert (out["pass_rank"][0], out["fail_rank"][0]) == (6, 9)
+    v = TH.implied_verdicts(out["pass_rank"], out["fail_rank"], np.arange(m))[0]
+    assert v.tolist() == [1] * 7 + [-1, -1] + [0] * 4
+
+
+def test_a_nonmonotone_sample_still_ends_on_a_pass_next_to_a_failure(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Verdicts 1 1 0 1 1 0 ...: the search reports one crossing, which the audit can contradict."""
+    pattern = [1, 1, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0]
+    oracle(monkeypatch, lambda i, k: pattern[k])
+    out = TH.search_rows("cuboid", rows_for(1, 13), TimeGrid(), [-1])
+    lo, hi = int(out["pass_rank"][0]), int(out["fail_rank"][0])
+    assert hi == lo + 1 and pattern[lo] == 1 and pattern[hi] == 0
+
+
+def test_direct_passes_and_axis_order() -> None:
+    climbed = np.array([[1, 1, 0, 0], [1, 1, 1, 1], [0, 1, 1, 1], [1, 0, 0, 0]], np.int8)
+    status = np.zeros_like(climbed)
+    status[3, 1] = 1  # an invalid run before the first failure: unknown
+    assert TH.direct_passes(climbed, status).tolist() == [2, 4, 0, -1]
+    assert TH.implied_verdicts(np.array([1]), np.array([2]), np.array([3, 2, 1, 0]))[0].tolist() == [0, 0, 1, 1]
+
+
+def tiny_threshold(**changes: Any) -> dict[str, Any]:
+    d = tomllib.loads(SMOKE.read_text())
+    d.update(
+        {
+            "name": "tth",
+            "mode": "threshold",
+            "presets": ["aluminum"],
+            "incline_deg": [0, 20, 40, 60],
+            "freq_hz": 10,
+            "samples": 4,
+            "check": {"fraction": 1.0, "min_runs": 1, "dt_factor": 2},
+        }
+    )
+    d.update(changes)
+    return d
+
+
+def test_config_threshold_mode() -> None:
+    cfg = load_config(tiny_threshold(incline_deg=[40, 0, 20, 60]))
+    assert cfg.cell_dims == ("shape", "substrate", "field_mT", "freq_hz")
+    assert cfg.axis_values == (0.0, 20.0, 40.0, 60.0)  # sorted
+    assert grid_of(cfg).early_decision
+    assert config_to_json(load_config(json.loads(config_to_json(cfg)))) == config_to_json(load_config(tiny_threshold()))
+    f = load_config(tiny_threshold(threshold_axis="field_mT", field_mT=[5, 20, 10]))
+    assert f.axis_values == (5.0, 10.0, 20.0) and TH.difficulty_order(f).tolist() == [2, 1, 0]
+    assert config_hash(f) != config_hash(
+        load_config(tiny_threshold(threshold_axis="field_mT", field_mT=[5, 20, 10], threshold_start="bisect"))
+    )
+
+
+@pytest.mark.parametrize(
+    ("changes", "words"),
+    [
+        ({"threshold_axis": "shape"}, "has no order to search"),
+        ({"threshold_axis": "mu"}, "threshold_axis"),
+        ({"incline_deg": [30]}, "at least 2 distinct values"),
+        ({"incline_deg": [30, 30, 40]}, "has duplicates"),
+        ({"threshold_start": "median"}, "threshold_start"),
+        (
+            {"threshold_axis": "field_mT", "field_mT": [5, 20], "uncertain": {"field_mT": {"dist": "normal", "rel_sd": 0.05}}},
+            "uncertain.field_mT",
+        ),
+        ({"incline_range": {"min": 0, "max": 30}}, "incline_range"),
+    ],
+)
+def test_config_refuses(changes: dict[str, Any], words: str) -> None:
+    with pytest.raises(ConfigError, match=words.replace(".", r"\.")):
+        load_config(tiny_threshold(**changes))
+
+
+def test_grid_config_hash_is_unchanged_by_the_threshold_keys() -> None:
+    """A grid study's identity text holds no threshold key (its hash is what earlier versions gave)."""
+    grid = load_config(tomllib.loads(SMOKE.read_text()))
+    assert "threshold" not in config_to_json(grid)
+
+
+@pytest.mark.slow
+def test_threshold_study_audits_itself(tmp_path: Path) -> None:
+    """Every sample checked: the searched thresholds equal the direct sweeps', the maps follow from them."""
+    res = run_study(tiny_threshold(), out=tmp_path / "t.nc", progress=False)
+    runs, maps = open_result(res.path)
+    a = runs.attrs
+    assert a["audit_checked_samples"] == 4 and a["audit_thresholds_compared"] == 4
+    assert a["audit_threshold_mismatches"] == 0 and a["audit_disagreements"] == 0
+    assert a["audit_early_stopped_climbed"] == 0
+    assert runs["n_simulations"].sum() < 4 * 4
+    ok = runs["status"].values == 0
+    for th in runs["incline_deg"].values:
+        share = float((runs["threshold"].values[ok] >= th).mean())
+        assert maps["p_success"].sel(incline_deg=th).item() == pytest.approx(share)
+    p = maps["p_success"].squeeze().values
+    assert np.all(np.diff(p) <= 0)  # monotone by construction
+    for ds in (runs, maps):
+        for name, var in ds.variables.items():
+            assert "long_name" in var.attrs, name
+    from tumblemc.viz.study import plot_study
+
+    pngs = plot_study(runs, maps, tmp_path / "plots")
+    assert [p.name for p in pngs] == ["success_heatmap.png", "success_curves.png", "threshold_distribution.png"]
+    # a rerun resumes nothing and gives the same file content
+    again = run_study(tiny_threshold(), out=tmp_path / "t2.nc", progress=False, batch_size=1)
+    r2, m2 = open_result(again.path)
+    np.testing.assert_array_equal(r2["threshold"].values, runs["threshold"].values)
+    np.testing.assert_array_equal(m2["p_success"].values, maps["p_success"].values)
