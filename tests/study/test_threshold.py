@@ -195,3 +195,84 @@ def test_threshold_study_audits_itself(tmp_path: Path) -> None:
     r2, m2 = open_result(again.path)
     np.testing.assert_array_equal(r2["threshold"].values, runs["threshold"].values)
     np.testing.assert_array_equal(m2["p_success"].values, maps["p_success"].values)
+
+
+def test_a_threshold_task_that_raises_keeps_every_column(monkeypatch: pytest.MonkeyPatch) -> None:
+    import tumblemc.study.tasks as tasks_mod
+    from tumblemc.study.design import design
+    from tumblemc.study.engine import plan
+
+    cfg = load_config(tiny_threshold())
+    des = design(cfg)
+
+    def boom(*a: Any, **k: Any) -> Any:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(tasks_mod, "search_rows", boom)
+    monkeypatch.setattr(tasks_mod, "sweep_rows", boom)
+    for kind, cols in (("main", {*TH.THRESHOLD_OUTCOMES, "error"}), ("check", set(TH.THRESHOLD_CHECK_COLUMNS))):
+        (task,) = plan(cfg, des, kind, np.arange(2), 8, "0" * 64)
+        _, run, out = tasks_mod.execute_task(task)
+        assert run.tolist() == [0, 1] and set(out) == cols
+        assert all(len(v) == 2 for v in out.values())
+        if kind == "main":
+            assert out["status"].tolist() == [3, 3] and "boom" in out["error"][0]
+
+
+@pytest.mark.slow
+def test_critical_field_study_brackets_equal_the_lab_protocol(tmp_path: Path) -> None:
+    """The field axis: each sample's bracket is the one lab.critical_field's bisection ends with (its midpoints are grid values)."""
+    from tumblemc.lab import critical_field
+
+    d = {
+        "name": "cf",
+        "mode": "threshold",
+        "threshold_axis": "field_mT",
+        "threshold_start": "bisect",
+        "shapes": ["cuboid"],
+        "presets": ["paper"],
+        "incline_deg": 0,
+        "field_mT": np.arange(3.0, 11.01, 0.5).tolist(),
+        "freq_hz": 1,
+        "samples": 2,
+        "seed": 7,
+        "check": {"fraction": 0.0, "min_runs": 0},
+    }
+    runs, _ = open_result(run_study(d, out=tmp_path / "cf.nc", progress=False).path)
+    names = str(runs.attrs["uncertain"]).split(",")
+    for i in range(2):
+        lab = critical_field(
+            1.0, 0.0, "cuboid", "paper", lo_mT=3.0, hi_mT=11.0, tol_mT=0.5, periods=2.0, **{p: float(runs[p].values[i]) for p in names}
+        )
+        assert bool(lab["tumbles_at_hi"]) and not bool(lab["tumbles_at_lo"])  # bracketed: the comparison means something
+        assert lab["bracket_mT"].values.tolist() == [runs["threshold_fail"].values[i], runs["threshold"].values[i]]
+        assert runs["n_simulations"].values[i] < int(lab["n_runs"])
+
+
+@pytest.mark.slow
+def test_adaptive_threshold_study_stops_when_every_grid_value_is_known(tmp_path: Path) -> None:
+    """Precision in a threshold study: a cell closes when the interval at every grid value is narrow enough."""
+    from tumblemc.analysis.confseq import CS_METHODS, cs_interval
+
+    d = tiny_threshold(
+        samples=60,
+        precision=0.25,
+        ci="confidence-sequence-ends",
+        check={"fraction": 0.05, "min_runs": 2, "dt_factor": 2},
+        presets=["aluminum", "paper"],
+    )
+    res = run_study(d, out=tmp_path / "a.nc", progress=False)
+    runs, maps = open_result(res.path)
+    assert runs.attrs["runs_kept"] == runs.sizes["run"] < 2 * 60
+    lo, hi = maps["p_success_lower"].values, maps["p_success_upper"].values
+    assert np.nanmax((hi - lo) / 2) <= 0.25 + 1e-12
+    cfg = load_config(d)
+    for sub in ("aluminum", "paper"):  # one sample fewer would leave some grid value's interval too wide
+        m = runs["substrate"].values == sub
+        v = runs["grid_verdict"].values[m][:-1]
+        widths = []
+        for k in range(v.shape[1]):
+            ok = v[:, k] >= 0
+            a, b = cs_interval(int((v[ok, k] == 1).sum()), int(ok.sum()), cfg.ci_level, CS_METHODS[cfg.ci])
+            widths.append((b - a) / 2)
+        assert m.sum() == 60 or max(widths) > 0.25

@@ -78,6 +78,7 @@ def run_adaptive(
     simulate: Callable[[np.ndarray], None],
     expect: Callable[[int], None] | None = None,
     redo: Callable[[int], None] | None = None,
+    verdicts: Callable[[dict[str, np.ndarray]], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> AdaptiveResult:
     """Run the main runs of an adaptive study, round by round.
 
@@ -97,6 +98,11 @@ def run_adaptive(
         Told, before runs are simulated, how many of them were simulated before (found done
         at the start, or simulated in an earlier call) and are missing again because their
         shards were set aside: a progress bar takes them off its count.
+    verdicts : callable, optional
+        ``(valid, success)``, each (runs, values), of the finished runs (rows in the order
+        of ``read_main()["run"]``): a cell closes once *every* value's interval meets the
+        precision (a threshold study: one value per grid value, :func:`threshold_verdicts`).
+        Default: one value per run, its ``status`` and ``climbed``.
     """
     assert cfg.precision is not None
     cap = cfg.samples
@@ -126,14 +132,16 @@ def run_adaptive(
                 f"adaptive round to {target} runs per cell: runs still missing after simulating them again "
                 "(their shards keep being set aside); run the same command again"
             )
-        status = np.full(n_runs, -1, dtype=np.int64)
-        climbed = np.zeros(n_runs, dtype=np.int64)
-        status[main["run"]] = main["status"]
-        climbed[main["run"]] = main["climbed"]
+        v_rows, s_rows = verdicts(main) if verdicts is not None else _run_verdicts(main)
+        valid = np.zeros((n_runs, v_rows.shape[1]), dtype=bool)
+        success = np.zeros_like(valid)
+        valid[main["run"]], success[main["run"]] = v_rows, s_rows & v_rows
         for c in open_cells:
             idx = c * cap + np.arange(target)
-            valid = is_valid(status[idx])
-            j = stop_count(valid, valid & (climbed[idx] == 1), cfg.precision, cfg.ci_level, CS_METHODS[cfg.ci])
+            stops = [
+                stop_count(valid[idx, k], success[idx, k], cfg.precision, cfg.ci_level, CS_METHODS[cfg.ci]) for k in range(valid.shape[1])
+            ]
+            j = None if any(s is None for s in stops) else max(int(s) for s in stops if s is not None)
             reached[c] = target
             if j is not None:
                 kept[c] = j
@@ -143,6 +151,23 @@ def run_adaptive(
             expect(int(np.sum(np.where(kept < 0, cap, reached))))
     used = np.concatenate([c * cap + np.arange(k) for c, k in enumerate(kept)]) if ncell else np.zeros(0, np.int64)
     return AdaptiveResult(used.astype(np.int64), kept, int(reached.sum()), int(np.count_nonzero(kept == cap)))
+
+
+def _run_verdicts(main: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """A grid study's runs: one verdict each (valid, and climbed)."""
+    v = is_valid(main["status"])
+    return v[:, None], (v & (main["climbed"] == 1))[:, None]
+
+
+def threshold_verdicts(order: np.ndarray) -> Callable[[dict[str, np.ndarray]], tuple[np.ndarray, np.ndarray]]:
+    """A threshold study's samples: the verdict at every grid value their bracket implies (``order``: difficulty order)."""
+    from tumblemc.study.threshold import implied_verdicts
+
+    def verdicts(main: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        v = implied_verdicts(main["pass_rank"], main["fail_rank"], order)
+        return v >= 0, v == 1
+
+    return verdicts
 
 
 def adaptive_attrs(cfg: StudyConfig, res: AdaptiveResult) -> dict[str, float | int | str]:
@@ -183,4 +208,4 @@ def restrict(
     return keep, main_u, check_u, local
 
 
-__all__ = ["GROWTH", "AdaptiveResult", "adaptive_attrs", "restrict", "run_adaptive", "schedule"]
+__all__ = ["GROWTH", "AdaptiveResult", "adaptive_attrs", "restrict", "run_adaptive", "schedule", "threshold_verdicts"]

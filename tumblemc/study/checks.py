@@ -179,8 +179,10 @@ def check_range_table(key: str, value: Mapping[str, Any], lo: float, hi: float) 
 
 def check_adaptive(mode: str, sampler: str, ci: str, precision: float, samples: int, level: float) -> None:
     """The config keys ``precision`` needs, checked (a :class:`ConfigError` naming the one that is not)."""
-    if mode != "grid":
-        raise ConfigError("precision", f"precision is for mode = 'grid' studies, not mode = {mode!r} (allowed: leave precision out)")
+    if mode not in ("grid", "threshold"):
+        raise ConfigError(
+            "precision", f"precision is for mode = 'grid' or 'threshold' studies, not mode = {mode!r} (allowed: leave precision out)"
+        )
     if sampler != "mc":
         raise ConfigError(
             "sampler",

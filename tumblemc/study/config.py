@@ -290,7 +290,8 @@ def _grid_cells(c: StudyConfig) -> list[dict[str, Any]]:
 
 
 def _cells_without(c: StudyConfig, axis: str) -> list[dict[str, Any]]:
-    return [{d: v for d, v in cell.items() if d != axis} for cell in _grid_cells(replace(c, **{axis: (0.0,)}))]
+    one: dict[str, Any] = {axis: (0.0,)}
+    return [{d: v for d, v in cell.items() if d != axis} for cell in _grid_cells(replace(c, **one))]
 
 
 def _critical_cells(c: StudyConfig) -> list[dict[str, Any]]:

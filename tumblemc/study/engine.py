@@ -45,7 +45,7 @@ from tumblemc.io import (
     result_attrs,
     write_result,
 )
-from tumblemc.study.adaptive import AdaptiveResult, adaptive_attrs, restrict, run_adaptive
+from tumblemc.study.adaptive import AdaptiveResult, adaptive_attrs, restrict, run_adaptive, schedule, threshold_verdicts
 from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
 from tumblemc.study.config import StudyConfig, load_config
@@ -310,8 +310,10 @@ def _run_locked(  # noqa: C901
     def slots() -> int:  # asked per batch of work: a cluster may still be starting or scaling
         return n_workers(client) if client is not None else 1
 
+    starts: dict[str, int] | None = None  # threshold mode: the search starts (from the audit's sweeps)
+
     def simulate(kind: str, idx: np.ndarray) -> None:  # an adaptive round, or its check runs: waited for as a whole
-        tasks = plan(cfg, des, kind, idx, bs, chash)
+        tasks = plan(cfg, des, kind, idx, bs, chash, starts if kind == "main" else None)
         workers = slots()
         cost = cell_cost(_read(store, "main"), cfg.samples) if kind == "main" and workers > 1 else None
         _execute(balance(tasks, workers, cost), client, on_result, mif)
@@ -320,6 +322,11 @@ def _run_locked(  # noqa: C901
     kept: AdaptiveResult | None = None
     try:
         if adaptive:  # rounds until every cell is known to the precision; then the dt check of the runs kept
+            if cfg.mode == "threshold":  # the pilot: the audit samples among the first round's
+                first = schedule(cfg)[0]
+                pilot = check_subset(des)[des["sample"].values[check_subset(des)] < first]
+                simulate("check", np.setdiff1d(pilot, _done(store, "check", progress)))
+                starts = search_starts(cfg, des, store, progress)
             kept = run_adaptive(
                 cfg,
                 n,
@@ -327,6 +334,7 @@ def _run_locked(  # noqa: C901
                 lambda idx: simulate("main", idx),
                 lambda m: bar.expect(m + n_check_runs(cfg, m)),
                 lambda again: bar.update(-again),  # runs counted once whose shards were set aside
+                threshold_verdicts(difficulty_order(cfg)) if cfg.mode == "threshold" else None,
             )
             used = kept.used
             check_idx = used[check_mask(cfg, des["run_key"].values[used])]
@@ -349,8 +357,8 @@ def _run_locked(  # noqa: C901
                 break
             bar.update(-(len(redo_main) + len(redo_check)))
             _execute(plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
-            starts = search_starts(cfg, des, store, progress) if cfg.mode == "threshold" else None
-            _execute(plan(cfg, des, "main", redo_main, bs, chash, starts), client, on_result, mif)
+            again = search_starts(cfg, des, store, progress) if cfg.mode == "threshold" else None
+            _execute(plan(cfg, des, "main", redo_main, bs, chash, again), client, on_result, mif)
         main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)  # read once: twins add their own kinds
         store.require([(used, main), (check_idx, check)])
         twin_idx = outside_tol(cfg, main, check, check_idx)

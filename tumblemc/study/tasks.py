@@ -94,9 +94,9 @@ def _error_result(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
             cols["error"] = np.array([f"internal error: {msg}"], dtype=object)
             cols = to_axis_order(task.cfg, cols, task.kind)
         return task.kind, np.asarray(task.run, dtype=np.int64), cols
-    cols = CRITICAL_OUTCOMES if (task.mode != "grid" and task.kind == "main") else OUTCOMES
+    spec = CRITICAL_OUTCOMES if (task.mode != "grid" and task.kind == "main") else OUTCOMES
     out: dict[str, np.ndarray] = {}
-    for k, dt in cols.items():
+    for k, dt in spec.items():
         out[k] = np.full(1, np.nan) if np.dtype(dt).kind == "f" else np.zeros(1, dt)
     out["status"][:] = 3
     out["error"] = np.array([f"internal error: {msg}"], dtype=object)

@@ -150,7 +150,7 @@ def search_rows(shape: str, rows: Sequence[Sequence[RunRow]], grid: TimeGrid, st
     while active.any():
         idx = np.flatnonzero(active)
         ks = nxt[idx]
-        res = simulate_rows(shape, [rows[i][k] for i, k in zip(idx, ks, strict=True)], grid)
+        res = simulate_rows(shape, [rows[int(i)][int(k)] for i, k in zip(idx, ks, strict=True)], grid)
         for j, (i, k) in enumerate(zip(idx, ks, strict=True)):
             s = int(res["status"][j])
             out["n_simulations"][i] += 1
@@ -255,7 +255,7 @@ def error_columns(kind: str, n: int, m: int) -> dict[str, np.ndarray]:
     """The columns of ``n`` runs that raised (status error)."""
     if kind == "check":
         return {k: np.full((n, m if w == "grid" else 2), fill, dt) for k, (dt, w, fill) in THRESHOLD_CHECK_COLUMNS.items()}
-    out = {k: np.zeros((n, m) if w == "grid" else n, dt) for k, (dt, w) in THRESHOLD_OUTCOMES.items()}
+    out: dict[str, np.ndarray] = {k: np.zeros((n, m) if w == "grid" else n, dt) for k, (dt, w) in THRESHOLD_OUTCOMES.items()}
     for k in ("threshold", "threshold_fail", "newton_iterations"):
         out[k][:] = np.nan
     out["probe_climbed"][:] = -1

@@ -264,6 +264,7 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    note: str | None
     if runs.attrs.get("mode") == "threshold":
         note = _threshold_note(runs)
         figures = [("threshold_distribution.png", plot_threshold_distribution(runs))]
@@ -271,7 +272,7 @@ def plot_study(runs: xr.Dataset, maps: xr.Dataset, out_dir: str | os.PathLike[st
             figures = [("success_heatmap.png", plot_success_heatmap(maps)), ("success_curves.png", plot_success_curves(maps)), *figures]
     elif runs.attrs.get("mode") == "critical_incline":  # one run per sample, no incline grid
         a = runs.attrs
-        note: str | None = (
+        note = (
             f"monotonicity check: {a.get('monotonicity_checked_samples', 0)} samples, disagreement rate "
             f"{a.get('monotonicity_disagreement_rate', float('nan')):.3f}; fine-dt verdicts agree in "
             f"{100 * a.get('check_agreement_rate', float('nan')):.1f}%"
