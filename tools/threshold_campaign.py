@@ -20,7 +20,8 @@ and :func:`tumblemc.lab.step_out` swept over the same grid (``refine=False``; th
 there is the study's: progress ratio >= 0.5, not the lab's following share). Brackets
 must be identical.
 
-Writes ``REPORT.md`` in ``--out-dir`` (docs/notes/threshold_studies.md quotes it).
+Writes ``REPORT_<what>.md`` in ``--out-dir`` and, with ``--report``, the same text there
+(``docs/notes/threshold_campaign.md``, which docs/notes/threshold_studies.md quotes).
 """
 
 from __future__ import annotations
@@ -174,7 +175,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("what", choices=["audit", "lab", "all"])
     ap.add_argument("--samples", type=int, default=None, help="per shape and substrate (audit: 13), or per study (lab: 10)")
-    ap.add_argument("--out-dir", default="results/threshold_campaign")
+    ap.add_argument("--out-dir", default="results/threshold_campaign", help="the studies' result files")
+    ap.add_argument("--report", default=None, help="also write the report (Markdown) here, e.g. docs/notes/threshold_campaign.md")
     args = ap.parse_args(argv)
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -185,6 +187,8 @@ def main(argv: list[str] | None = None) -> int:
         lines += lab(args.samples or 10, out_dir)
     text = "\n".join(lines)
     (out_dir / f"REPORT_{args.what}.md").write_text(text + "\n")
+    if args.report:
+        Path(args.report).write_text(text + "\n")
     print(text)
     return 0
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import json
 import tomllib
 from pathlib import Path
@@ -51,43 +50,48 @@ def rows_for(n: int, m: int) -> list[list[dict[str, int]]]:
     return [[{"i": i, "k": k} for k in range(m)] for i in range(n)]
 
 
+def search(rows: list[list[dict[str, int]]], prior: Any) -> dict[str, np.ndarray]:
+    """search_rows one sample at a time (a task holds one cell, so one prior)."""
+    outs = [TH.search_rows("cuboid", [r], TimeGrid(), prior) for r in rows]
+    return {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+
+
 @pytest.mark.parametrize("m", [1, 2, 5, 13])
-def test_every_threshold_from_every_start_is_found_exactly(monkeypatch: pytest.MonkeyPatch, m: int) -> None:
-    """Monotone verdicts: the search returns the exact count of grid values passed, whatever its start."""
-    cases = list(itertools.product(range(m + 1), range(-1, m + 1)))  # (true J, start)
-    calls = oracle(monkeypatch, lambda i, k: k < cases[i][0])
-    out = TH.search_rows("cuboid", rows_for(len(cases), m), TimeGrid(), [s for _, s in cases])
-    assert out["n_pass"].tolist() == [j for j, _ in cases]
-    assert np.all(out["fail_rank"] - out["pass_rank"] == 1)
-    assert out["censored"].tolist() == [-1 if j == 0 else 1 if j == m else 0 for j, _ in cases]
-    assert len(calls) == out["n_simulations"].sum()
-    # never a grid value twice for a sample, never outside the grid
-    per = {}
-    for i, k in calls:
-        assert 0 <= k < m
-        per.setdefault(i, []).append(k)
-    assert all(len(v) == len(set(v)) for v in per.values())
+def test_every_threshold_under_every_prior_is_found_exactly(monkeypatch: pytest.MonkeyPatch, m: int) -> None:
+    """Monotone verdicts: the search returns the exact count of grid values passed, whatever its prior."""
     bisect_bound = int(np.ceil(np.log2(m + 1)))
-    for c, (j, s) in enumerate(cases):
-        if s < 0:
-            assert out["n_simulations"][c] <= bisect_bound
-        if s == j:  # an exact guess: the value below and the value above it at most
-            assert out["n_simulations"][c] <= 2
+    for g in [None, *range(m + 1)]:  # plain bisection, then a pilot that saw one sample at g
+        prior = None if g is None else TH.pilot_prior(np.array([g]), m)
+        calls = oracle(monkeypatch, lambda i, k: k < i)  # sample i passes i grid values
+        out = search(rows_for(m + 1, m), prior)
+        assert out["n_pass"].tolist() == list(range(m + 1))
+        assert np.all(out["fail_rank"] - out["pass_rank"] == 1)
+        assert out["censored"].tolist() == [-1] + [0] * (m - 1) + [1] if m > 1 else [-1, 1]
+        assert len(calls) == out["n_simulations"].sum()
+        per: dict[int, list[int]] = {}
+        for i, k in calls:  # never a grid value twice for a sample, never outside the grid
+            assert 0 <= k < m
+            per.setdefault(i, []).append(k)
+        assert all(len(v) == len(set(v)) for v in per.values())
+        if g is None:
+            assert out["n_simulations"].max() <= bisect_bound
+        else:
+            assert out["n_simulations"][g] <= 2  # the pilot was right: the values next to it
+            assert out["n_simulations"].max() <= max(bisect_bound, 7)  # the floor bounds a wrong pilot
 
 
-def test_a_guess_far_off_costs_about_two_bisections(monkeypatch: pytest.MonkeyPatch) -> None:
-    m = 13
-    cases = list(itertools.product(range(m + 1), range(m + 1)))
-    oracle(monkeypatch, lambda i, k: k < cases[i][0])
-    out = TH.search_rows("cuboid", rows_for(len(cases), m), TimeGrid(), [s for _, s in cases])
-    assert out["n_pass"].tolist() == [j for j, _ in cases]
-    assert out["n_simulations"].max() <= 2 * int(np.ceil(np.log2(m + 1)))
+def test_a_uniform_prior_is_plain_bisection() -> None:
+    for m in range(1, 20):
+        uniform = np.full(m + 1, 1.0)
+        for lo in range(-1, m - 1):
+            for hi in range(lo + 2, m + 1):
+                assert TH.next_probe(lo, hi, uniform) == TH.next_probe(lo, hi, None) == (lo + hi) // 2
 
 
 def test_an_invalid_probe_stops_the_search_and_keeps_what_is_known(monkeypatch: pytest.MonkeyPatch) -> None:
     m = 13  # true J = 8; plain bisection probes 6 (pass), then 9 (fail), then 7: invalid there
     oracle(monkeypatch, lambda i, k: k < 8, invalid={(0, 7)})
-    out = TH.search_rows("cuboid", rows_for(1, m), TimeGrid(), [-1])
+    out = TH.search_rows("cuboid", rows_for(1, m), TimeGrid())
     assert out["status"][0] == 1 and out["n_pass"][0] == -1
     assert (out["pass_rank"][0], out["fail_rank"][0]) == (6, 9)
     v = TH.implied_verdicts(out["pass_rank"], out["fail_rank"], np.arange(m))[0]
@@ -98,7 +102,7 @@ def test_a_nonmonotone_sample_still_ends_on_a_pass_next_to_a_failure(monkeypatch
     """Verdicts 1 1 0 1 1 0 ...: the search reports one crossing, which the audit can contradict."""
     pattern = [1, 1, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0]
     oracle(monkeypatch, lambda i, k: pattern[k])
-    out = TH.search_rows("cuboid", rows_for(1, 13), TimeGrid(), [-1])
+    out = TH.search_rows("cuboid", rows_for(1, 13), TimeGrid())
     lo, hi = int(out["pass_rank"][0]), int(out["fail_rank"][0])
     assert hi == lo + 1 and pattern[lo] == 1 and pattern[hi] == 0
 
@@ -186,6 +190,14 @@ def test_threshold_study_audits_itself(tmp_path: Path) -> None:
     for ds in (runs, maps):
         for name, var in ds.variables.items():
             assert "long_name" in var.attrs, name
+    from tumblemc.analysis.words import threshold_words
+    from tumblemc.study.status import study_status
+
+    words = study_status(res.path)["threshold_search"]
+    assert "0 non-monotone, thresholds identical in 4 of 4, 0 of 16 verdicts differ" in words and " (in " not in words
+    bad = runs.copy(deep=True)
+    bad["check_nonmonotone"].values[1] = 1
+    assert "(in cuboid on aluminum: maps.audit_nonmonotone" in str(threshold_words(bad))
     from tumblemc.viz.study import plot_study
 
     pngs = plot_study(runs, maps, tmp_path / "plots")

@@ -181,10 +181,15 @@ def threshold_words(runs: xr.Dataset) -> str | None:
         return text + "; no audit (no check samples)"
     tc, tm = int(a["audit_thresholds_compared"]), int(a["audit_threshold_mismatches"])
     ec = int(a["audit_early_stopped_climbed"])
+    cr = np.asarray(runs["check_run"].values, dtype=np.int64)
+    bad = (runs["check_nonmonotone"].values == 1) | (runs["check_disagree"].values.sum(axis=1) > 0)
+    where = sorted({f"{runs['shape'].values[r]} on {runs['substrate'].values[r]}" for r in cr[bad]})
+    cells = f" (in {', '.join(where)}: maps.audit_nonmonotone, maps.audit_disagree)" if where else ""
     return (
         f"{text}; audit: {int(a['audit_checked_samples'])} samples simulated at every grid value to the end: "
         f"{int(a['audit_nonmonotone_samples'])} non-monotone, thresholds identical in {tc - tm} of {tc}, "
         f"{int(a['audit_disagreements'])} of {int(a['audit_compared_verdicts'])} verdicts differ from the threshold's, "
         f"{ec} of {int(a['audit_early_stopped_probes'])} early stops contradicted (the direct run climbed)"
         + ("" if ec == 0 else " (the bound failed; please report)")
+        + cells
     )

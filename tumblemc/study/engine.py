@@ -54,7 +54,7 @@ from tumblemc.study.identity import config_hash, config_to_json
 from tumblemc.study.progress import Progress
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
 from tumblemc.study.tasks import Task, design_rows, execute_task, one_run_tasks  # noqa: F401  (re-exported)
-from tumblemc.study.threshold import difficulty_order, direct_passes, pilot_starts, sample_rows
+from tumblemc.study.threshold import difficulty_order, direct_passes, pilot_priors, sample_rows
 from tumblemc.study.threshold_file import assemble_threshold, threshold_maps
 from tumblemc.study.twins import TWIN_KINDS, outside_tol, twin_row, with_twins
 
@@ -68,13 +68,19 @@ class StudyResult(NamedTuple):
 
 
 def plan(
-    cfg: StudyConfig, des: xr.Dataset, kind: str, todo: np.ndarray, batch_size: int, chash: str, starts: dict[str, int] | None = None
+    cfg: StudyConfig,
+    des: xr.Dataset,
+    kind: str,
+    todo: np.ndarray,
+    batch_size: int,
+    chash: str,
+    priors: dict[str, tuple[float, ...]] | None = None,
 ) -> list[Task]:
     """Batches of the runs ``todo``: runs of one cell (one shape and time grid) together.
 
     ``kind``: "main", "check" (at the finer dt) or one of :data:`TWIN_KINDS` (grid mode:
-    the magnetisation changed, simulated to the end). ``starts``: threshold mode, the
-    search start of each cell (by cell key; absent: plain bisection).
+    the magnetisation changed, simulated to the end). ``priors``: threshold mode, the
+    prior of each cell's searches (by cell key; absent: plain bisection).
     """
     grid = grid_of(cfg, fine=(kind == "check" and cfg.mode == "grid"))
     fine = grid_of(cfg, fine=True)
@@ -93,7 +99,7 @@ def plan(
         idx = todo[start:stop]
         key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
         if cfg.mode == "threshold":
-            st = tuple((starts or {}).get(str(cellkey[i]), -1) for i in idx)
+            prior = (priors or {}).get(str(cellkey[idx[0]]), ())  # a batch is one cell
             arows = tuple(sample_rows(cfg, des, idx))
             tasks.append(
                 Task(
@@ -106,7 +112,7 @@ def plan(
                     cfg.mode,
                     fine=fine,
                     axis_rows=arows,
-                    start=st,
+                    prior=prior,
                     cfg=cfg,
                 )
             )
@@ -310,10 +316,10 @@ def _run_locked(  # noqa: C901
     def slots() -> int:  # asked per batch of work: a cluster may still be starting or scaling
         return n_workers(client) if client is not None else 1
 
-    starts: dict[str, int] | None = None  # threshold mode: the search starts (from the audit's sweeps)
+    priors: dict[str, tuple[float, ...]] | None = None  # threshold mode: the searches' priors (from the audit's sweeps)
 
     def simulate(kind: str, idx: np.ndarray) -> None:  # an adaptive round, or its check runs: waited for as a whole
-        tasks = plan(cfg, des, kind, idx, bs, chash, starts if kind == "main" else None)
+        tasks = plan(cfg, des, kind, idx, bs, chash, priors if kind == "main" else None)
         workers = slots()
         cost = cell_cost(_read(store, "main"), cfg.samples) if kind == "main" and workers > 1 else None
         _execute(balance(tasks, workers, cost), client, on_result, mif)
@@ -326,7 +332,7 @@ def _run_locked(  # noqa: C901
                 first = schedule(cfg)[0]
                 pilot = check_subset(des)[des["sample"].values[check_subset(des)] < first]
                 simulate("check", np.setdiff1d(pilot, _done(store, "check", progress)))
-                starts = search_starts(cfg, des, store, progress)
+                priors = search_priors(cfg, des, store)
             kept = run_adaptive(
                 cfg,
                 n,
@@ -343,8 +349,8 @@ def _run_locked(  # noqa: C901
         elif cfg.mode == "threshold":
             # the audit's sweeps first: they are the pilot that starts each cell's searches
             _execute(balance(plan(cfg, des, "check", todo_check, bs, chash), slots()), client, on_result, mif)
-            starts = search_starts(cfg, des, store, progress)
-            _execute(balance(plan(cfg, des, "main", todo_main, bs, chash, starts), slots()), client, on_result, mif)
+            priors = search_priors(cfg, des, store)
+            _execute(balance(plan(cfg, des, "main", todo_main, bs, chash, priors), slots()), client, on_result, mif)
         else:
             # the check runs (at dt / dt_factor) last, as the progress bar's rate expects; their
             # last batches run by run
@@ -357,7 +363,7 @@ def _run_locked(  # noqa: C901
                 break
             bar.update(-(len(redo_main) + len(redo_check)))
             _execute(plan(cfg, des, "check", redo_check, bs, chash), client, on_result, mif)
-            again = search_starts(cfg, des, store, progress) if cfg.mode == "threshold" else None
+            again = search_priors(cfg, des, store) if cfg.mode == "threshold" else None
             _execute(plan(cfg, des, "main", redo_main, bs, chash, again), client, on_result, mif)
         main, check = store.read("main", set_aside=False), store.read("check", set_aside=False)  # read once: twins add their own kinds
         store.require([(used, main), (check_idx, check)])
@@ -401,8 +407,8 @@ def _run_locked(  # noqa: C901
     return StudyResult(runs, maps, path)
 
 
-def search_starts(cfg: StudyConfig, des: xr.Dataset, store: ShardStore, progress: bool) -> dict[str, int]:
-    """Threshold mode: each cell's search start from its check samples' sweeps (``threshold_start = "pilot"``)."""
+def search_priors(cfg: StudyConfig, des: xr.Dataset, store: ShardStore) -> dict[str, tuple[float, ...]]:
+    """Threshold mode: each cell's prior from its check samples' sweeps (``threshold_start = "pilot"``)."""
     if cfg.threshold_start != "pilot":
         return {}
     chk = _read(store, "check")
@@ -412,7 +418,7 @@ def search_starts(cfg: StudyConfig, des: xr.Dataset, store: ShardStore, progress
     j = direct_passes(chk["grid_climbed"][:, order], chk["grid_status"][:, order])
     status = np.where(j >= 0, 0, 1)
     ck = des["cell_key"].values
-    return pilot_starts(j, status, ck[chk["run"]], ck)
+    return pilot_priors(j, status, ck[chk["run"]], ck, len(cfg.axis_values))
 
 
 def _say(enabled: bool, msg: str) -> None:

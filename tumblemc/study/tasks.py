@@ -41,9 +41,9 @@ class Task:
     inclines: tuple[float, ...] = ()
     fine: TimeGrid | None = None
     full: tuple[bool, ...] = ()  # rows run to the end despite grid.early_decision (the dt-check runs: the audit)
-    # threshold mode: each run's rows at every grid value (difficulty order), search starts
+    # threshold mode: each run's rows at every grid value (difficulty order), the cell's prior
     axis_rows: tuple[tuple[RunRow, ...], ...] = ()
-    start: tuple[int, ...] = ()
+    prior: tuple[float, ...] = ()  # over the threshold 0 .. m (study/threshold.py; empty: plain bisection)
     cfg: StudyConfig | None = None
 
 
@@ -62,7 +62,6 @@ def one_run_tasks(task: Task) -> list[Task]:
             rows=task.rows[k : k + 1],
             full=task.full[k : k + 1],
             axis_rows=task.axis_rows[k : k + 1],
-            start=task.start[k : k + 1],
         )
         for k, r in enumerate(task.run)
     ]
@@ -114,7 +113,7 @@ def _execute_task(task: Task) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     if task.mode == "threshold":
         assert task.cfg is not None and task.fine is not None
         if task.kind == "main":
-            cols = search_rows(task.shape, task.axis_rows, task.grid, task.start)
+            cols = search_rows(task.shape, task.axis_rows, task.grid, task.prior or None)
         else:
             cols = sweep_rows(task.shape, task.axis_rows, task.grid, task.fine)
         return task.kind, run, to_axis_order(task.cfg, cols, task.kind)

@@ -42,7 +42,7 @@ def _attrs(cfg: StudyConfig) -> dict[str, dict[str, Any]]:
             "flag_values": np.array([-1, 0, 1], dtype=np.int8),
             "flag_meanings": "fails_every_value bracketed passes_every_value",
         },
-        "search_start": {"units": "1", "long_name": "the search's guess of n_pass (-1: plain bisection)"},
+        "search_start": {"units": "1", "long_name": "difficulty rank of the grid value the search probed first (the prior's median)"},
         "n_simulations": {"units": "1", "long_name": "simulations the search used"},
         "status": {"units": "1", "long_name": "status of the search (the first invalid probe's; ok: every probe valid)", **STATUS_FLAGS},
         "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step over the search's simulations"},
