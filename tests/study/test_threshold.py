@@ -288,3 +288,41 @@ def test_adaptive_threshold_study_stops_when_every_grid_value_is_known(tmp_path:
             a, b = cs_interval(int((v[ok, k] == 1).sum()), int(ok.sum()), cfg.ci_level, CS_METHODS[cfg.ci])
             widths.append((b - a) / 2)
         assert m.sum() == 60 or max(widths) > 0.25
+
+
+@pytest.mark.slow
+def test_an_interrupted_threshold_study_resumes_to_the_same_file(tmp_path: Path) -> None:
+    """Main shards lost (an interruption after the audit): the rerun searches them again with the same priors."""
+    import xarray as xr
+
+    from tumblemc.io import parts_dir
+    from tumblemc.study.engine import run_study as run
+
+    d = tiny_threshold(samples=6, check={"fraction": 0.34, "min_runs": 2, "dt_factor": 2})
+    ref = run(d, out=tmp_path / "ref.nc", progress=False, batch_size=2)
+    out = tmp_path / "cut.nc"
+    import tumblemc.study.engine as eng
+
+    calls = {"n": 0}
+    real = eng._execute
+
+    def stop_after_audit(tasks: Any, *a: Any) -> Any:  # the audit, then two main tasks, then "Ctrl-C"
+        if tasks and tasks[0].kind == "main":
+            calls["n"] += 1
+            real(tasks[:2], *a)
+            raise KeyboardInterrupt
+        return real(tasks, *a)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(eng, "_execute", stop_after_audit)
+        with pytest.raises(KeyboardInterrupt):
+            run(d, out=out, progress=False, batch_size=2)
+    assert calls["n"] == 1 and len(list(parts_dir(out).glob("main-*"))) == 2
+    again = run(d, out=out, progress=False, batch_size=3)
+    ra, ma = open_result(ref.path)
+    rb, mb = open_result(again.path)
+    for k in ("history", "date_created"):
+        for ds in (ra, rb, ma, mb):
+            ds.attrs.pop(k, None)
+    xr.testing.assert_identical(ra, rb)
+    xr.testing.assert_identical(ma, mb)
