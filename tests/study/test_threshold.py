@@ -197,7 +197,10 @@ def test_threshold_study_audits_itself(tmp_path: Path) -> None:
     assert "0 non-monotone, thresholds identical in 4 of 4, 0 of 16 verdicts differ" in words and " (in " not in words
     bad = runs.copy(deep=True)
     bad["check_nonmonotone"].values[1] = 1
-    assert "(in cuboid on aluminum: maps.audit_nonmonotone" in str(threshold_words(bad))
+    bad.attrs["audit_nonmonotone_samples"] = 1
+    said = str(threshold_words(bad))
+    assert "(in cuboid on aluminum: maps.audit_nonmonotone" in said and "WARNING: 1 of 4 audited samples" in said
+    assert "WARNING" not in words
     from tumblemc.viz.study import plot_study
 
     pngs = plot_study(runs, maps, tmp_path / "plots")

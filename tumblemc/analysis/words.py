@@ -192,4 +192,15 @@ def threshold_words(runs: xr.Dataset) -> str | None:
         f"{ec} of {int(a['audit_early_stopped_probes'])} early stops contradicted (the direct run climbed)"
         + ("" if ec == 0 else " (the bound failed; please report)")
         + cells
+        + _nonmonotone_warning(int(a["audit_nonmonotone_samples"]), int(a["audit_checked_samples"]))
+    )
+
+
+def _nonmonotone_warning(k: int, n: int) -> str:
+    if k == 0:
+        return ""
+    return (
+        f". WARNING: {k} of {n} audited samples are not monotone along the axis, which a threshold study assumes: "
+        "each is counted by the one crossing its search found, so the maps can be wrong between crossings; "
+        'run this study with mode = "grid" (or another operating point) before trusting them'
     )
