@@ -23,6 +23,7 @@ import io
 import json
 import os
 import shutil
+import stat
 import uuid
 import zipfile
 from collections import Counter
@@ -63,7 +64,7 @@ def _fsync_dir(folder: Path) -> None:
 def _atomic_write_bytes(path: Path, data: bytes) -> None:
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
-        with open(tmp, "wb") as fh:
+        with open(tmp, "xb") as fh:  # O_EXCL: never through a file or link already there
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
@@ -271,7 +272,7 @@ class StudyLock:
             return self
         self.path.parent.mkdir(parents=True, exist_ok=True)
         while True:
-            fh = open(self.path, "a+")  # noqa: SIM115 - held open for the lock's lifetime
+            fh = self._open()
             try:
                 fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -294,6 +295,25 @@ class StudyLock:
         fh.flush()
         self._fh = fh
         return self
+
+    def _open(self) -> Any:
+        """The lock file, opened (created if needed) without following a symlink.
+
+        A link planted at ``<out>.lock`` is refused and its target left untouched.
+        """
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
+        except OSError as e:
+            if self.path.is_symlink():
+                raise StudyLockedError(
+                    f"{self.path} is a symbolic link (to {os.readlink(self.path)}); tumblemc does not write through it. "
+                    "Remove it, or give another --out"
+                ) from None
+            raise StudyLockedError(f"cannot open the lock file {self.path}: {e.strerror}") from None
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            os.close(fd)
+            raise StudyLockedError(f"{self.path} is not a regular file; remove it, or give another --out")
+        return os.fdopen(fd, "r+")
 
     def __exit__(self, *exc: object) -> None:
         if self._fh is not None:

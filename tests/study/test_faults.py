@@ -320,3 +320,37 @@ def test_shards_of_an_older_schema_are_redone_once_new_ones_exist(reference: Pat
     run_study(tiny(), out=out, progress=False)
     assert_same_result(reference, out)
     assert len(list((out.with_name(out.name + ".damaged")).iterdir())) == 4
+
+
+@pytest.mark.slow
+def test_the_dashboard_listens_on_loopback_only() -> None:
+    """`study run --dashboard`: the dashboard (logs, call stacks, no login) and the scheduler bind to 127.0.0.1, as the link says."""
+    from tumblemc.study.engine import local_client
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
+        client = local_client(1, dashboard=True)
+    try:
+        bound = [s.getsockname()[0] for s in client.cluster.scheduler.http_server._sockets.values()]
+        assert bound and all(h == "127.0.0.1" for h in bound), bound
+        assert urlparse(client.dashboard_link).hostname == "127.0.0.1"
+        assert urlparse(client.cluster.scheduler.address).hostname == "127.0.0.1"
+    finally:
+        cluster = client.cluster
+        client.close()
+        cluster.close()
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no flock on Windows: nothing is locked there")
+def test_a_symlinked_lock_is_refused_and_its_target_untouched(tmp_path: Path) -> None:
+    target = tmp_path / "precious.txt"
+    target.write_text("keep me")
+    out = tmp_path / "study.nc"
+    out.with_name(out.name + ".lock").symlink_to(target)
+    with pytest.raises(StudyLockedError, match="is a symbolic link"):
+        with StudyLock(out):
+            pass
+    assert target.read_text() == "keep me"
+    with pytest.raises(StudyLockedError, match="is a symbolic link"):
+        run_study(tiny(), out=out, progress=False)
+    assert target.read_text() == "keep me" and not out.exists()

@@ -30,8 +30,10 @@ def local_client(workers: int | None = None, dashboard: bool = False) -> Any:
 
     ``dashboard=False``: the scheduler's HTTP server (which distributed always starts)
     listens on a free loopback port, so a busy port 8787 neither warns nor fails;
-    ``dashboard=True``: the dashboard on port 8787 (another free port if that one is
-    taken), its address in ``client.dashboard_link``.
+    ``dashboard=True``: the dashboard on 127.0.0.1:8787 (another free port if that one is
+    taken), its address in ``client.dashboard_link``. Loopback only: the dashboard serves
+    the scheduler's logs, workers and call stacks without a login; reach it from another
+    machine through an SSH tunnel (``ssh -L 8787:127.0.0.1:8787 host``).
     """
     from distributed import Client, LocalCluster
 
@@ -42,7 +44,7 @@ def local_client(workers: int | None = None, dashboard: bool = False) -> Any:
     # worker processes inherit an ignored SIGINT: Ctrl-C reaches only this process, which
     # keeps the finished shards and shuts the cluster down (no traceback from each worker)
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    address = ":8787" if dashboard else "127.0.0.1:0"
+    address = "127.0.0.1:8787" if dashboard else "127.0.0.1:0"  # loopback only: the dashboard shows logs and call stacks without a login
     try:
         with warnings.catch_warnings():  # "Port 8787 is already in use ... instead": the link says where it is
             warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
