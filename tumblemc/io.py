@@ -89,6 +89,15 @@ def _size(nbytes: float) -> str:
     return f"{nbytes:.1f} GiB"
 
 
+def shard_digest(config_hash: str, data: bytes) -> str:
+    """The digits that end a shard's name: SHA-256 of the study's config hash and the shard's bytes.
+
+    A shard proves both that it is intact and that it belongs to this study: one copied
+    from another study (valid columns, other runs) fails the check like a damaged one.
+    """
+    return hashlib.sha256(f"tumblemc-shard {config_hash}\n".encode() + data).hexdigest()[:DIGEST_CHARS]
+
+
 class ShardStore:
     """The ``<result>.parts/`` folder of one study.
 
@@ -105,6 +114,7 @@ class ShardStore:
         self.dir = parts_dir(self.result)
         self.config_json = config_json
         self.config_hash = config_hash
+        self.n_runs: int | None = None  # runs in the design, once known: a shard with others is set aside
 
     def open(self, fresh: bool = False) -> None:
         """Create the folder, or check that an existing one belongs to this config."""
@@ -135,7 +145,7 @@ class ShardStore:
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         data = buf.getvalue()
-        name = f"{kind}-{int(run[0]):09d}-{len(run)}-{hashlib.sha256(data).hexdigest()[:DIGEST_CHARS]}{SHARD_SUFFIX}"
+        name = f"{kind}-{int(run[0]):09d}-{len(run)}-{shard_digest(self.config_hash, data)}{SHARD_SUFFIX}"
         path = self.dir / name
         _atomic_write_bytes(path, data)
         return path
@@ -153,14 +163,15 @@ class ShardStore:
             return {}
         shards: dict[Path, dict[str, np.ndarray]] = {}
         for path in sorted(self.dir.glob(f"{kind}-*{SHARD_SUFFIX}")):
-            data, why = _load_shard(path)
+            data, why = _load_shard(path, self.config_hash)
+            if data is not None and self.n_runs is not None and (data["run"].min() < 0 or data["run"].max() >= self.n_runs):
+                data, why = None, f"records runs outside the study's design (0 to {self.n_runs - 1})"
             if data is None:
                 self.damaged.append((path, why))
             else:
                 shards[path] = data
-        if shards:  # every shard of a kind has the same columns: the most common set, among checksummed shards if any
-            current = [d for p, d in shards.items() if len(p.stem.rsplit("-", 1)[-1]) != LEGACY_TAG_CHARS] or list(shards.values())
-            common = Counter(frozenset(d) for d in current).most_common(1)[0][0]
+        if shards:  # every shard of a kind has the same columns: the most common set
+            common = Counter(frozenset(d) for d in shards.values()).most_common(1)[0][0]
             for path, d in list(shards.items()):
                 if frozenset(d) != common:
                     missing, extra = sorted(common - frozenset(d)), sorted(frozenset(d) - common)
@@ -207,16 +218,22 @@ def read_study_json(meta: Path) -> dict[str, Any]:
     return stored
 
 
-def _load_shard(path: Path) -> tuple[dict[str, np.ndarray] | None, str]:
-    """A shard's columns, or ``None`` and why it cannot be used."""
+def _load_shard(path: Path, config_hash: str) -> tuple[dict[str, np.ndarray] | None, str]:
+    """A shard's columns, or ``None`` and why it cannot be used (:func:`shard_digest`)."""
     try:
         raw = path.read_bytes()
     except OSError as e:
         return None, f"cannot be read ({e.strerror})"
     digest = path.stem.rsplit("-", 1)[-1]
-    legacy = len(digest) == LEGACY_TAG_CHARS  # written before shards had checksums: structure checked only
-    if not legacy and (len(digest) != DIGEST_CHARS or hashlib.sha256(raw).hexdigest()[:DIGEST_CHARS] != digest):
-        return None, "fails its checksum (the name's SHA-256 digits)"
+    if len(digest) == LEGACY_TAG_CHARS:
+        return None, "has the unchecked tag of an earlier version (nothing shows it is intact or of this study)"
+    if len(digest) != DIGEST_CHARS or digest != shard_digest(config_hash, raw):
+        if digest == hashlib.sha256(raw).hexdigest()[:DIGEST_CHARS]:
+            return None, "was written by an earlier version (its checksum does not cover the study's config hash)"
+        return (
+            None,
+            "fails its checksum (the name's SHA-256 digits over the study's config hash and the shard): damaged, or of another study",
+        )
     try:
         with np.load(io.BytesIO(raw), allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}

@@ -24,7 +24,7 @@ import xarray as xr
 import tumblemc
 from tests.study.test_engine import _to_toml, assert_same_result, tiny
 from tumblemc.cli import main
-from tumblemc.io import ResultWriteError, StudyLock, StudyLockedError, StudyStateError, parts_dir
+from tumblemc.io import ResultWriteError, StudyLock, StudyLockedError, StudyStateError, parts_dir, shard_digest
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import load_config
 from tumblemc.study.engine import run_study, study_status
@@ -57,9 +57,15 @@ def _npz(arrays: dict[str, np.ndarray]) -> bytes:
     return buf.getvalue()
 
 
+def _tiny_hash(**changes: Any) -> str:
+    from tumblemc.study.identity import config_hash
+
+    return config_hash(load_config(tiny(**changes)))
+
+
 def _named(folder: Path, stem: str, data: bytes) -> Path:
-    """A shard whose name carries the checksum of ``data`` (a well-formed shard)."""
-    p = folder / f"{stem}-{hashlib.sha256(data).hexdigest()[:16]}.npz"
+    """A shard whose name carries the checksum of ``data`` under the tiny study's config hash (a well-formed shard)."""
+    p = folder / f"{stem}-{shard_digest(_tiny_hash(), data)}.npz"
     p.write_bytes(data)
     return p
 
@@ -119,7 +125,7 @@ def test_shards_carry_a_checksum_in_their_name(tmp_path: Path, monkeypatch: pyte
     shards = interrupted(tmp_path / "tiny.nc", monkeypatch)
     assert shards
     for s in shards:
-        assert s.stem.rsplit("-", 1)[1] == hashlib.sha256(s.read_bytes()).hexdigest()[:16]
+        assert s.stem.rsplit("-", 1)[1] == shard_digest(_tiny_hash(), s.read_bytes())
         assert zipfile.is_zipfile(s)
 
 
@@ -290,19 +296,52 @@ def test_a_concurrent_cli_run_is_refused_while_the_first_finishes(tmp_path: Path
     assert study_status(out)["state"] == "complete"
 
 
-def test_shards_of_an_earlier_version_without_checksum_still_count(
-    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+def test_shards_of_earlier_versions_are_set_aside_and_redone(
+    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """An interrupted study from before checksums resumes: its shards (a random 8-hex tag) are checked for structure only."""
+    """Shards that cannot prove they belong to this study are named, set aside and redone: the same result.
+
+    The 8-hex tag of the oldest versions, and a checksum of the bytes alone (before the config hash was in it).
+    """
     out = tmp_path / "tiny.nc"
     shards = interrupted(out, monkeypatch)
-    for s in shards:
+    tagged, unbound = shards[:3], shards[3:5]
+    for s in tagged:
         s.rename(s.with_name(s.stem.rsplit("-", 1)[0] + "-0123abcd.npz"))
-    first = sorted(parts_dir(out).glob("main-*.npz"))[0]
-    first.write_bytes(first.read_bytes()[:100])  # a torn one is still caught
+    for s in unbound:
+        s.rename(s.with_name(s.stem.rsplit("-", 1)[0] + f"-{hashlib.sha256(s.read_bytes()).hexdigest()[:16]}.npz"))
+    capsys.readouterr()
     run_study(tiny(), out=out, progress=False)
+    err = capsys.readouterr().err
     assert_same_result(reference, out)
-    assert [p.name for p in (out.with_name(out.name + ".damaged")).iterdir()] == [first.name]
+    assert len(list((out.with_name(out.name + ".damaged")).iterdir())) == 5
+    assert err.count("unchecked tag of an earlier version") == 3 and err.count("written by an earlier version") == 2
+
+
+def test_a_shard_of_another_study_or_outside_the_design_is_set_aside(
+    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A foreign shard and one with runs beyond the design: each named and set aside, the result the uninterrupted one.
+
+    The foreign one is the same-numbered shard of another study (valid checksum there, other runs).
+    """
+    other = tmp_path / "other" / "tiny.nc"
+    foreign = interrupted(other, monkeypatch, seed=999)[2]
+    out = tmp_path / "tiny.nc"
+    shards = interrupted(out, monkeypatch)
+    shards[2].unlink()
+    planted = out.with_name(out.name + ".parts") / foreign.name
+    planted.write_bytes(foreign.read_bytes())
+    with np.load(shards[3]) as z:
+        cols = {k: z[k] for k in z.files}
+    cols["run"] = cols["run"] + 1000
+    outside = _named(shards[3].parent, f"main-{int(cols['run'][0]):09d}-{len(cols['run'])}", _npz(cols))
+    capsys.readouterr()
+    run_study(tiny(), out=out, progress=False)
+    err = capsys.readouterr().err
+    assert f"set aside {planted.name} (fails its checksum" in err and "of another study" in err
+    assert f"set aside {outside.name} (records runs outside the study's design" in err
+    assert_same_result(reference, out)
 
 
 def test_shards_of_an_older_schema_are_redone_once_new_ones_exist(reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

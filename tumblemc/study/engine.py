@@ -295,6 +295,7 @@ def _run_locked(  # noqa: C901
 
     des = design(cfg)
     n = des.sizes["run"]
+    store.n_runs = n  # a shard with runs outside the design is set aside, named
     adaptive = cfg.precision is not None
     check_idx = np.zeros(0, np.int64) if adaptive else check_subset(des)
     bs = int(batch_size or cfg.execution.batch_size)

@@ -48,6 +48,7 @@ def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLik
             return _other_config(store.dir, stored)
     des = design(cfg)
     n = des.sizes["run"]
+    store.n_runs = n
     nc = len(check_subset(des))
     main = store.read("main", set_aside=False)
     damaged = list(store.damaged)
