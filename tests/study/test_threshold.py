@@ -66,7 +66,7 @@ def test_every_threshold_under_every_prior_is_found_exactly(monkeypatch: pytest.
         out = search(rows_for(m + 1, m), prior)
         assert out["n_pass"].tolist() == list(range(m + 1))
         assert np.all(out["fail_rank"] - out["pass_rank"] == 1)
-        assert out["censored"].tolist() == [-1] + [0] * (m - 1) + [1] if m > 1 else [-1, 1]
+        assert out["censored"].tolist() == ([-1] + [0] * (m - 1) + [1] if m > 1 else [-1, 1])
         assert len(calls) == out["n_simulations"].sum()
         per: dict[int, list[int]] = {}
         for i, k in calls:  # never a grid value twice for a sample, never outside the grid
@@ -166,9 +166,10 @@ def test_config_refuses(changes: dict[str, Any], words: str) -> None:
 
 
 def test_grid_config_hash_is_unchanged_by_the_threshold_keys() -> None:
-    """A grid study's identity text holds no threshold key (its hash is what earlier versions gave)."""
+    """A grid study's identity text holds no threshold key, and its hash is what 157fb29 (before threshold studies) gave."""
     grid = load_config(tomllib.loads(SMOKE.read_text()))
     assert "threshold" not in config_to_json(grid)
+    assert config_hash(grid) == "3e37a8c516c2fa6c0db6fcd904bbf919701882089ce165afd2d678e914eb9b42"
 
 
 @pytest.mark.slow

@@ -254,6 +254,17 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRo
     return cast(RunRow, {**out, **params_for_run(config, row)})
 
 
+def design_values(config: StudyConfig, des: xr.Dataset, idx: Any, **fixed: float) -> list[dict[str, Any]]:
+    """The run-table values :func:`batch_row` reads, for runs ``idx`` (columns read once, not per run).
+
+    ``fixed``: values set in every row (a threshold study's axis value, which its run table
+    does not hold).
+    """
+    names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in config.uncertain_names)]
+    cols = {k: des[k].values for k in names if k in des.variables}
+    return [{**{k: v[i] for k, v in cols.items()}, **fixed} for i in idx]
+
+
 def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
     """Every keyword of ``tumblemc.simulate`` for one run.
 

@@ -22,6 +22,7 @@ Guarantees
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import shutil
 import sys
@@ -98,50 +99,23 @@ def plan(
             stop += 1
         idx = todo[start:stop]
         key = f"tumblemc-{kind}-{chash[:10]}-{int(idx[0]):09d}-{len(idx)}"
-        if cfg.mode == "threshold":
-            prior = (priors or {}).get(str(cellkey[idx[0]]), ())  # a batch is one cell
+        base = Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), (), grid)  # what every mode's task has
+        if cfg.mode == "threshold":  # a batch is one cell: one prior
             arows = tuple(sample_rows(cfg, des, idx))
-            tasks.append(
-                Task(
-                    kind,
-                    key,
-                    str(shapes[idx[0]]),
-                    tuple(int(i) for i in idx),
-                    (),
-                    grid,
-                    cfg.mode,
-                    fine=fine,
-                    axis_rows=arows,
-                    prior=prior,
-                    cfg=cfg,
-                )
-            )
-            start = stop
-            continue
-        rows = tuple(design_rows(cfg, des, idx))
-        if kind in TWIN_KINDS:
-            rows = tuple(twin_row(r, TWIN_KINDS[kind], cfg.check.twin_rel) for r in rows)
-        if cfg.mode == "grid":
-            full = tuple(bool(f) or kind in TWIN_KINDS for f in checked[idx]) if grid.early_decision else ()
-            tasks.append(Task(kind, key, str(shapes[idx[0]]), tuple(int(i) for i in idx), rows, grid, full=full))
+            prior = (priors or {}).get(str(cellkey[idx[0]]), ())
+            tasks.append(dataclasses.replace(base, mode=cfg.mode, fine=fine, axis_rows=arows, prior=prior, cfg=cfg))
         else:
-            lo, hi = cfg.incline_range
-            tasks.append(
-                Task(
-                    kind,
-                    key,
-                    str(shapes[idx[0]]),
-                    tuple(int(i) for i in idx),
-                    rows,
-                    grid,
-                    cfg.mode,
-                    lo,
-                    hi,
-                    cfg.incline_tol,
-                    inclines,
-                    fine,
+            rows = tuple(design_rows(cfg, des, idx))
+            if kind in TWIN_KINDS:
+                rows = tuple(twin_row(r, TWIN_KINDS[kind], cfg.check.twin_rel) for r in rows)
+            if cfg.mode == "grid":
+                full = tuple(bool(f) or kind in TWIN_KINDS for f in checked[idx]) if grid.early_decision else ()
+                tasks.append(dataclasses.replace(base, rows=rows, full=full))
+            else:
+                lo, hi = cfg.incline_range
+                tasks.append(
+                    dataclasses.replace(base, rows=rows, mode=cfg.mode, lo=lo, hi=hi, tol=cfg.incline_tol, inclines=inclines, fine=fine)
                 )
-            )
         start = stop
     return tasks
 

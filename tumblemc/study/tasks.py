@@ -16,10 +16,10 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
-from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES, sampled_name
+from tumblemc.schema import CHECK_COLUMNS, CRITICAL_OUTCOMES, OUTCOMES
 from tumblemc.study.config import StudyConfig
 from tumblemc.study.critical import bisect_rows, monotonicity_rows
-from tumblemc.study.design import batch_row
+from tumblemc.study.design import batch_row, design_values
 from tumblemc.study.threshold import error_columns, search_rows, sweep_rows, to_axis_order
 
 
@@ -156,6 +156,4 @@ def _critical_check(task: Task) -> dict[str, np.ndarray]:
 
 def design_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[RunRow]:
     """:func:`tumblemc.study.design.batch_row` of runs ``idx`` (columns read once, not per run)."""
-    names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
-    cols = {k: des[k].values for k in names if k in des.variables}
-    return [batch_row(cfg, {k: v[i] for k, v in cols.items()}) for i in idx]
+    return [batch_row(cfg, row) for row in design_values(cfg, des, idx)]

@@ -43,7 +43,7 @@ import xarray as xr
 from tumblemc.model.outcome import is_valid
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
 from tumblemc.study.config import StudyConfig
-from tumblemc.study.design import batch_row, sampled_name
+from tumblemc.study.design import batch_row, design_values
 from tumblemc.study.modes import THRESHOLD_AXES
 
 #: outcome columns of :func:`search_rows` (``grid``: one value per grid value, axis order)
@@ -90,14 +90,9 @@ def difficulty_order(cfg: StudyConfig) -> np.ndarray:
 
 def sample_rows(cfg: StudyConfig, des: xr.Dataset, idx: Sequence[int] | np.ndarray) -> list[tuple[RunRow, ...]]:
     """For each run of ``idx``: its simulate rows at every grid value, in difficulty order."""
-    names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in cfg.uncertain_names)]
-    cols = {k: des[k].values for k in names if k in des.variables}
     values = np.asarray(cfg.axis_values)[difficulty_order(cfg)]
-    out = []
-    for i in idx:
-        row = {k: v[i] for k, v in cols.items()}
-        out.append(tuple(batch_row(cfg, {**row, cfg.threshold_axis: float(v)}) for v in values))
-    return out
+    per_value = [[batch_row(cfg, row) for row in design_values(cfg, des, idx, **{cfg.threshold_axis: float(v)})] for v in values]
+    return [tuple(rows) for rows in zip(*per_value, strict=True)]
 
 
 #: a pilot sample whose threshold is ``J`` gives weight ``PILOT_KERNEL ** |j - J|`` to threshold ``j``
@@ -173,9 +168,7 @@ def search_rows(
     """
     n, m = len(rows), len(rows[0])
     pr = None if prior is None or len(prior) == 0 else np.asarray(prior, dtype=np.float64)
-    out: dict[str, np.ndarray] = {k: np.zeros((n, m) if w == "grid" else n, dt) for k, (dt, w) in THRESHOLD_OUTCOMES.items()}
-    out["probe_climbed"][:] = -1
-    out["probe_status"][:] = -1
+    out = _blank(n, m)
     nit = np.zeros(n)
     err = np.full(n, "", dtype=object)
     lo, hi = np.full(n, -1), np.full(n, m)
@@ -195,7 +188,7 @@ def search_rows(
             nit[i] += np.nan_to_num(res["newton_iterations"][j])
             for c in ("substeps", "failed_steps", "loose_steps", "impulse_steps"):
                 out[c][i] += res[c][j]
-            if not is_valid(np.asarray([s]))[0]:
+            if not is_valid(s):
                 out["status"][i] = s
                 err[i] = err[i] or res["error"][j]
                 active[i] = False
@@ -279,15 +272,21 @@ def implied_verdicts(pass_rank: np.ndarray, fail_rank: np.ndarray, order: np.nda
     return np.where(rank[None, :] <= lo, 1, np.where(rank[None, :] >= hi, 0, -1)).astype(np.int8)
 
 
+def _blank(n: int, m: int) -> dict[str, np.ndarray]:
+    """:data:`THRESHOLD_OUTCOMES` of ``n`` samples on ``m`` grid values, zero; the probes not simulated (-1)."""
+    out: dict[str, np.ndarray] = {k: np.zeros((n, m) if w == "grid" else n, dt) for k, (dt, w) in THRESHOLD_OUTCOMES.items()}
+    out["probe_climbed"][:] = -1
+    out["probe_status"][:] = -1
+    return out
+
+
 def error_columns(kind: str, n: int, m: int) -> dict[str, np.ndarray]:
     """The columns of ``n`` runs that raised (status error)."""
     if kind == "check":
         return {k: np.full((n, m if w == "grid" else 2), fill, dt) for k, (dt, w, fill) in THRESHOLD_CHECK_COLUMNS.items()}
-    out: dict[str, np.ndarray] = {k: np.zeros((n, m) if w == "grid" else n, dt) for k, (dt, w) in THRESHOLD_OUTCOMES.items()}
+    out = _blank(n, m)
     for k in ("threshold", "threshold_fail", "newton_iterations"):
         out[k][:] = np.nan
-    out["probe_climbed"][:] = -1
-    out["probe_status"][:] = -1
     out["pass_rank"][:] = -1
     out["fail_rank"][:] = m
     out["n_pass"][:] = -1

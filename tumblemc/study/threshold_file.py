@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.maps import maps as make_maps
-from tumblemc.schema import CHECK_FLAG_ATTRS, COORD_ATTRS, OUTCOME_ATTRS, STATUS_FLAGS
+from tumblemc.schema import CHECK_FLAG_ATTRS, COORD_ATTRS, CRITICAL_ATTRS, OUTCOME_ATTRS, STATUS_FLAGS
 from tumblemc.study.config import StudyConfig
 from tumblemc.study.design import study_dt
 from tumblemc.study.modes import THRESHOLD_AXES
@@ -45,11 +45,8 @@ def _attrs(cfg: StudyConfig) -> dict[str, dict[str, Any]]:
         "search_start": {"units": "1", "long_name": "difficulty rank of the grid value the search probed first (the prior's median)"},
         "n_simulations": {"units": "1", "long_name": "simulations the search used"},
         "status": {"units": "1", "long_name": "status of the search (the first invalid probe's; ok: every probe valid)", **STATUS_FLAGS},
-        "newton_iterations": {"units": "1", "long_name": "mean Newton iterations per time step over the search's simulations"},
-        "substeps": {"units": "1", "long_name": "extra sub-steps (halvings of dt), total over the search"},
-        "failed_steps": {"units": "1", "long_name": "time steps that did not converge at the smallest sub-step, total"},
-        "loose_steps": {"units": "1", "long_name": "time steps kept unsolved but within accept_tol or impulse_accept_tol, total"},
-        "impulse_steps": {"units": "1", "long_name": "of the loose steps, those kept by impulse_accept_tol, total"},
+        # the solver's counts over a sample's simulations: as a critical-incline study reports them
+        **{k: CRITICAL_ATTRS[k] for k in ("newton_iterations", "substeps", "failed_steps", "loose_steps", "impulse_steps")},
         "probe_climbed": {
             "units": "1",
             "long_name": "verdict of the search's simulation at the grid value",
