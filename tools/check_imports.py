@@ -22,7 +22,7 @@ message``, exiting 1 if there is any:
 
 The layers, lowest first (a module may import its own layer and those below)::
 
-    kernels <- schema, model, testing <- io, analysis <- study, lab <- viz <- reports <- cli
+    kernels <- schema, model, testing <- io, analysis <- study, lab, design <- viz <- reports <- cli
 """
 
 from __future__ import annotations
@@ -49,6 +49,8 @@ LAYERS: dict[str, int] = {
     "tumblemc.study": 3,
     # bench tests and calibration: runs, summarised (figures in viz)
     "tumblemc.lab": 3,
+    # design search: families of shapes, studies of designs
+    "tumblemc.design": 3,
     "tumblemc.viz": 4,
     # run simulations and draw figures: only the command line may import them
     "tumblemc.reports": 5,

@@ -31,7 +31,7 @@ from tumblemc.cli.common import EXIT_USAGE, SUMMARY_UNITS, UsageError, format_ta
 from tumblemc.version import __version__
 
 #: the subcommands, in the order ``tumblemc --help`` lists them: ``tumblemc.cli.<name>``
-SUBCOMMANDS = ("simulate", "lab", "calibrate", "validate", "stress", "study", "animate", "shapes")
+SUBCOMMANDS = ("simulate", "lab", "calibrate", "validate", "stress", "study", "design", "animate", "shapes")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -122,8 +122,10 @@ def spiked_ends(
     """
     for nm, val in (("length", length), ("bar_height", bar_height), ("spike_base", spike_base), ("spike_height", spike_height)):
         check_dim(nm, val)
-    if not spike_base < length / 2:
-        raise ValueError(f"spike_base={spike_base!r} is not allowed (allowed: < length / 2 = {length / 2!r} m)")
+    if not spike_base <= length / 2:
+        raise ValueError(
+            f"spike_base={spike_base!r} is not allowed: the spikes of one side would overlap (allowed: <= length / 2 = {length / 2!r} m)"
+        )
     hy, hz, b = length / 2, bar_height / 2, spike_base
     az, ay = hz + spike_height, hy - b / 2
     prof = [
@@ -140,6 +142,9 @@ def spiked_ends(
         (-ay, az),
         (-hy, hz),
     ]
+    if abs(2 * b - length) <= 1e-12 * length:  # spike_base = length / 2: the spikes of a side meet at mid-length, one vertex there
+        prof[2], prof[8] = (0.0, -hz), (0.0, hz)
+        prof = [p for k, p in enumerate(prof) if k not in (3, 9)]
     shp = extruded(prof, thickness, name="spiked_ends", mass_from=mass_from)
     labels = {"+y face #1": "+y flank -z", "+y face #2": "+y end", "+y face #3": "+y flank +z"}
     labels |= {"-y face #1": "-y flank +z", "-y face #2": "-y end", "-y face #3": "-y flank -z"}
