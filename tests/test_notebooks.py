@@ -24,6 +24,7 @@ def test_there_are_notebooks() -> None:
         "02_explore_results.ipynb",
         "03_sensitivity.ipynb",
         "04_calibrate_and_study.ipynb",
+        "05_design.ipynb",
     ]
 
 

@@ -117,6 +117,18 @@ class Objective:
         return UNITS[self.kind]
 
     @property
+    def label(self) -> str:
+        """What the estimate is, in words (figures, tables)."""
+        at = f"{self.substrate}, {self.field_mT:g} mT, {self.freq_hz:g} Hz"
+        if self.kind == "climb":
+            return f"P(climb {self.incline_deg:g} deg, {at})"
+        if self.kind == "speed":
+            return f"speed at {self.incline_deg:g} deg ({at}), mm/s"
+        if self.kind == "incline_quantile":
+            return f"incline {self.q:.0%} of robots climb ({at}), deg"
+        return f"field {self.q:.0%} of robots climb at ({self.substrate}, {self.incline_deg:g} deg, {self.freq_hz:g} Hz), mT"
+
+    @property
     def binary(self) -> bool:
         """Whether each robot's value is 0/1 (the anytime-valid early stop applies)."""
         return self.kind == "climb"

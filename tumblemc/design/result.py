@@ -94,7 +94,7 @@ def build_dataset(s: Search, rec: int | None) -> xr.DataTree:
         des[o.name] = (
             "design",
             np.array([x.value for x in e]),
-            {"units": o.unit, "long_name": f"{what} {o.name} ({o.kind}, goal {o.goal})"},
+            {"units": o.unit, "long_name": f"{what} {o.name} ({o.kind}, goal {o.goal})", "label": o.label},
         )
         des[o.name + "_lo"] = (
             "design",

@@ -289,6 +289,16 @@ def search(
     require(cfg.strategy)
     with StudyLock(out):
         store = DesignStore(out, cfg)
+        if out.exists() and not fresh and not store.dir.exists():
+            import xarray as xr
+
+            with xr.open_datatree(out, engine="netcdf4") as done:
+                theirs = done.attrs.get("config_hash")
+            if theirs != store.hash:
+                raise StudyStateError(f"{out} holds another design problem's result (config hash {theirs}); give another --out, or --fresh")
+            if progress:
+                print(f"{out} is complete; nothing to do (--fresh to search again)", file=sys.stderr)
+            return out
         store.open(fresh)
         bar = Progress(cfg.budget, 0, enabled=progress)
         s = Search(cfg, store, client, bar, runner)

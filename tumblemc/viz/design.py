@@ -21,6 +21,8 @@ from tumblemc.viz.style import panel_grid, save_figure
 
 
 def _label(ds: xr.Dataset, name: str) -> str:
+    if "label" in ds[name].attrs:
+        return str(ds[name].attrs["label"])
     u = ds[name].attrs.get("units", "")
     scale, unit = (1e6, "um") if u == "m" else (1.0, u)
     del scale
@@ -149,9 +151,10 @@ def sweep_figure(df: Any, path: str | os.PathLike[str]) -> None:
     for rule, mk in zip(RULES, ("o-", "s--"), strict=True):
         d = df[df["mass_rule"] == rule]
         axs[0, 0].plot(d["spike_um"], d["speed_mm_s"], mk, ms=4, label=f"mass rule {rule}")
-        axs[0, 1].plot(d["spike_um"], d["climbs_deg"], mk, ms=4, label=f"mass rule {rule}")
+        axs[0, 1].plot(d["spike_um"], d["climbs_deg"], mk, ms=4, label=f"{rule}: climbs (ratio >= 0.5)")
+        axs[0, 1].plot(d["spike_um"], d["holds_deg"], mk, ms=4, mfc="none", label=f"{rule}: holds (ratio > 0)")
     axs[0, 0].set_ylabel("speed on flat aluminum (mm/s)")
-    axs[0, 1].set_ylabel("critical incline: last climbed (deg)")
+    axs[0, 1].set_ylabel("critical incline (deg)")
     for ax in axs[0]:
         ax.set_xlabel("spike base = spike height (um)")
         ax.grid(alpha=0.3)
