@@ -139,6 +139,20 @@ def test_common_random_numbers() -> None:
     assert len({r["mu"] for r in a}) == 6
 
 
+def test_manufacturing_tolerance_is_sampled_per_robot() -> None:
+    from tumblemc.design.evaluate import robot_dims
+
+    cfg = cfg_of(variables={"spike_base": {"bounds": [50 * UM, 400 * UM], "tolerance": 10 * UM}, "spike_height": BOUNDS["spike_height"]})
+    u = uniforms(cfg, range(400), SEARCH)
+    mid = np.array([d["spike_base"] for d in robot_dims(cfg, {"spike_base": 200 * UM, "spike_height": 200 * UM}, u)])
+    assert abs(np.std(mid) - 10 * UM) < 1.5 * UM and abs(np.median(mid) - 200 * UM) < 1.5 * UM
+    dims = robot_dims(cfg, {"spike_base": 60 * UM, "spike_height": 200 * UM}, u)
+    base = np.array([d["spike_base"] for d in dims])
+    assert np.all(base >= 50 * UM) and np.mean(base == 50 * UM) > 0.1  # kept in the bounds
+    assert np.all([d["spike_height"] == 200 * UM for d in dims])  # no tolerance, no noise
+    assert dims[5:7] == robot_dims(cfg, {"spike_base": 60 * UM, "spike_height": 200 * UM}, u[5:7])
+
+
 def test_a_chunk_is_the_same_robots_however_split() -> None:
     cfg = cfg_of(uncertain=None, objectives=[{"kind": "speed", "substrate": "paper", "freq_hz": 10}], samples=4, stage=4)
     x = (("spike_base", 120 * UM), ("spike_height", 300 * UM))
@@ -221,6 +235,7 @@ def test_proposals_are_in_the_box_and_deterministic(strategy: str) -> None:
         ({"uncertain": {"mass": {"dist": "uniform", "rel_low": 0.9, "rel_high": 1.1}}}, ["uncertain.mass", "follows from the design"]),
         ({"stage": 30}, ["stage=30", "divide"]),
         ({"strategy": "bayes"}, ["strategy='bayes'"]),
+        ({"budget": 150}, ["budget=150", "at least 200"]),
         ({"fixed": {"spike_base": 1e-4}}, ["fixed.spike_base", "also a design variable"]),
     ],
 )

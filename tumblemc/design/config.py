@@ -303,6 +303,11 @@ def parse_design(d: Mapping[str, Any], base: Path | None = None, source: str = "
             from tumblemc.study.distributions import nominal_value
 
             u.resolve(nominal_value(u.param, o.substrate, o.field_mT), f"substrate {o.substrate}")
+    budget = check_int("budget", d.get("budget", 3200), 1, 10**9)
+    confirm = check_int("confirm", d.get("confirm", 200), 0, 1_000_000)
+    least = (samples + (confirm if len(objectives) == 1 else 0)) * (len(objectives) + len(constraints))
+    if budget < least:
+        raise config_error("budget", budget, "does not pay for one design and the confirmation", f"at least {least} simulations")
     early = d.get("early_stop", True)
     if not isinstance(early, bool):
         raise config_error("early_stop", early, "is not a boolean", "true or false")
@@ -318,12 +323,12 @@ def parse_design(d: Mapping[str, Any], base: Path | None = None, source: str = "
         constraints=constraints,
         mass_rule=rule,
         strategy=check_choice("strategy", d.get("strategy", "gp"), STRATEGIES),
-        budget=check_int("budget", d.get("budget", 3200), 1, 10**9),
+        budget=budget,
         samples=samples,
         stage=stage,
         initial=check_int("initial", d.get("initial", 8), 1, 10_000),
         batch=check_int("batch", d.get("batch", 4), 1, 1000),
-        confirm=check_int("confirm", d.get("confirm", 200), 0, 1_000_000),
+        confirm=confirm,
         early_stop=early,
         level=check_num("level", d.get("level", 0.95), 0.5, 1.0, hi_open=True),
         periods=periods,

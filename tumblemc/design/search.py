@@ -5,11 +5,15 @@
    measured so far.
 2. A round's designs are evaluated stage by stage (``stage`` robots each, the same robots
    for every design: common random numbers, :mod:`tumblemc.design.evaluate`). After each
-   stage, with one objective of 0/1 values (P(climb)), a design whose anytime-valid upper
-   bound (the beta-binomial confidence sequence of the adaptive studies,
-   :func:`tumblemc.analysis.confseq.cs_interval`) lies below the best lower bound of any
-   design so far is stopped: it cannot be the best, whatever its remaining robots do,
-   at the stated level.
+   stage, with one objective of 0/1 values (P(climb)), each design is compared with the
+   incumbent (the design with the best estimate on the same robots) robot by robot: on
+   the robots where the two differ (the discordant pairs, McNemar's view), the incumbent
+   wins each with a probability ``q``, and ``q > 1/2`` exactly when the incumbent's P is
+   higher. The beta-binomial confidence sequence of the adaptive studies
+   (:func:`tumblemc.analysis.confseq.cs_interval`) on those wins is valid at every stage,
+   however often it is looked at; a design is stopped once its lower end exceeds 1/2: it is
+   worse than the incumbent at the stated level, whatever its remaining robots do. Pairing
+   is what makes this bite: neighbouring designs differ on few robots.
 3. Rounds continue while the budget (simulations) allows another round and the
    confirmation.
 4. The recommendation is the design the model believes best (:func:`model_best`) among
@@ -191,28 +195,29 @@ class Search:
 
     # -- early stopping -------------------------------------------------------------
     def _stop_check(self, active: list[int]) -> list[int]:
+        """The active designs not yet decisively worse than the incumbent (paired, anytime-valid; module docstring)."""
         cfg = self.cfg
         obj = cfg.objectives[0]
         if not (cfg.early_stop and len(cfg.objectives) == 1 and obj.binary):
             return active
         sign = 1.0 if obj.goal == "max" else -1.0
-        bounds = {}
-        for i in range(len(self.designs)):
-            v = self.values.get((i, 0, SEARCH))
-            if v is None or not len(v):
-                continue
-            v = v[~np.isnan(v)]
-            lo, hi = cs_interval(int(v.sum()), len(v), cfg.level)
-            bounds[i] = (float(lo), float(hi)) if sign > 0 else (-float(hi), -float(lo))
-        if not bounds:
-            return active
-        best_lo = max(b[0] for b in bounds.values())
+        vals = {i: v for i in range(len(self.designs)) if len(v := self.values.get((i, 0, SEARCH), np.zeros(0)))}
         keep = []
-        for i in active:
-            if i in bounds and bounds[i][1] < best_lo:
-                self.stopped[i] = len(self.values[(i, 0, SEARCH)])
+        for d in active:
+            n = len(vals[d])
+            peers = [i for i, v in vals.items() if i != d and len(v) >= n]
+            if not peers:
+                keep.append(d)
+                continue
+            b = max(peers, key=lambda i: (sign * float(np.nanmean(vals[i][:n])), -i))  # the incumbent on d's robots
+            xb, xd = sign * vals[b][:n], sign * vals[d][:n]
+            ok = ~np.isnan(xb) & ~np.isnan(xd)
+            wins, discordant = int(np.sum(xb[ok] > xd[ok])), int(np.sum(xb[ok] != xd[ok]))
+            lo, _ = cs_interval(wins, discordant, cfg.level)
+            if discordant and float(lo) > 0.5:
+                self.stopped[d] = n
             else:
-                keep.append(i)
+                keep.append(d)
         return keep
 
     def evaluate_round(self, ids: list[int]) -> None:
@@ -304,8 +309,9 @@ def search(
         s = Search(cfg, store, client, bar, runner)
         d = len(cfg.variables)
         confirm_cost = cfg.confirm * len(cfg.tasks) if len(cfg.objectives) == 1 else 0
-        if not s.designs:
-            s.add(initial(d, cfg.initial, cfg.seed), 0)
+        if not s.designs:  # as many of the initial designs as the budget allows with the confirmation
+            fit = int((cfg.budget - confirm_cost) // s.cost_per_design())
+            s.add(initial(d, max(1, min(cfg.initial, fit)), cfg.seed), 0)
         rounds = sorted({int(r["round"]) for r in s.designs})
         for r in rounds:  # replay: stored chunks are read, unfinished ones simulated
             s.evaluate_round([x["id"] for x in s.designs if x["round"] == r])
