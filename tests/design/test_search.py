@@ -272,3 +272,33 @@ def test_every_corner_is_checked() -> None:
             }
         )
     assert math.isfinite(true_p({"spike_base": 50 * UM, "spike_height": 50 * UM}))
+
+
+@pytest.mark.parametrize("kind", ["incline_quantile", "critical_field"])
+def test_threshold_objectives_against_a_sweep(kind: str) -> None:
+    """A robot's critical incline (field) from the search equals the first failure (success) of a sweep over the grid."""
+    from tumblemc.design.evaluate import time_grid
+    from tumblemc.design.families import build
+    from tumblemc.model.rows import simulate_rows
+
+    grid = [0.0, 10.0, 20.0, 25.0, 30.0, 40.0] if kind == "incline_quantile" else [0.5, 1.0, 1.5, 2.0, 3.0, 5.0]
+    key = "incline_grid" if kind == "incline_quantile" else "field_grid"
+    obj = {"kind": kind, "substrate": "aluminum", "freq_hz": 10, key: grid, "incline_deg": 0 if kind == "incline_quantile" else 20}
+    cfg = cfg_of(objectives=[obj], uncertain={}, samples=2, stage=2, budget=10**4)
+    x = (("spike_base", 100 * UM), ("spike_height", 125 * UM))
+    res = execute(Chunk(0, x, 0, (0,), SEARCH, cfg))
+    des = build("spiked_ends", cfg.dims(dict(x)), "aluminum")
+    axis = "incline_deg" if kind == "incline_quantile" else "field_mT"
+    o = cfg.objectives[0]
+    base = {"preset": "aluminum", "incline_deg": o.incline_deg, "field_mT": o.field_mT, "freq_hz": 10.0, **des.overrides()}
+    sweep = simulate_rows(des.shape, [dict(base, **{axis: g}) for g in grid], time_grid(cfg, o))
+    ok = (sweep["climbed"] == 1) & (sweep["status"] == 0)
+    if kind == "incline_quantile":
+        assert np.all(np.diff(ok.astype(int)) <= 0)  # monotone on this grid: a sweep's answer is unambiguous
+        want = max((g for g, c in zip(grid, ok, strict=True) if c), default=-math.inf)
+    else:
+        assert np.all(np.diff(ok.astype(int)) >= 0)
+        want = min((g for g, c in zip(grid, ok, strict=True) if c), default=math.inf)
+    assert math.isfinite(want) and want not in (grid[0], grid[-1])  # an interior threshold: the search had to find it
+    assert res["value"][0] == want and res["status"][0] == 0
+    assert 1 <= res["n_sim"][0] < len(grid)
