@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from tumblemc.viz.style import panel_grid, save_figure
 
@@ -100,6 +101,7 @@ def plot_front(tree: xr.DataTree, path: str | os.PathLike[str] | None = None) ->
                 label=f"recommended, on {int(conf['robots'])} fresh robots",
             )
         ax.set_xlabel("design (order evaluated)")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_ylabel(_label(ds, a))
         ax.set_title(f"{tree.attrs['family']}: {n} designs, {tree.attrs['simulations']} simulations ({tree.attrs['strategy']})")
     ax.legend(fontsize=8, loc="best")
@@ -148,11 +150,11 @@ def sweep_figure(df: Any, path: str | os.PathLike[str]) -> None:
     from tumblemc.design.sweep import RULES
 
     fig, axs = panel_grid(1, 2, 4.2, 3.2)
-    for rule, mk in zip(RULES, ("o-", "s--"), strict=True):
+    for rule, ls, color in zip(RULES, ("-", "--"), ("C0", "C1"), strict=True):
         d = df[df["mass_rule"] == rule]
-        axs[0, 0].plot(d["spike_um"], d["speed_mm_s"], mk, ms=4, label=f"mass rule {rule}")
-        axs[0, 1].plot(d["spike_um"], d["climbs_deg"], mk, ms=4, label=f"{rule}: climbs (ratio >= 0.5)")
-        axs[0, 1].plot(d["spike_um"], d["holds_deg"], mk, ms=4, mfc="none", label=f"{rule}: holds (ratio > 0)")
+        axs[0, 0].plot(d["spike_um"], d["speed_mm_s"], "o" + ls, color=color, ms=4, label=f"mass rule {rule}")
+        axs[0, 1].plot(d["spike_um"], d["climbs_deg"], "o" + ls, color=color, ms=4, label=f"{rule}: climbs (ratio >= 0.5)")
+        axs[0, 1].plot(d["spike_um"], d["holds_deg"], "s" + ls, color=color, ms=4, mfc="none", label=f"{rule}: holds (ratio > 0)")
     axs[0, 0].set_ylabel("speed on flat aluminum (mm/s)")
     axs[0, 1].set_ylabel("critical incline (deg)")
     for ax in axs[0]:
