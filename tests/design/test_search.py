@@ -302,3 +302,19 @@ def test_threshold_objectives_against_a_sweep(kind: str) -> None:
     assert math.isfinite(want) and want not in (grid[0], grid[-1])  # an interior threshold: the search had to find it
     assert res["value"][0] == want and res["status"][0] == 0
     assert 1 <= res["n_sim"][0] < len(grid)
+
+
+def test_constraints_decide_what_can_be_recommended(tmp_path: Path) -> None:
+    """A constraint no design meets leaves nothing to recommend; one some designs meet restricts the recommendation to them."""
+    climb = {"kind": "climb", "substrate": "aluminum", "incline_deg": 30}
+    # the synthetic runner answers every task with the same P: a constraint P >= 0.95 fails everywhere
+    cfg = cfg_of(constraints=[dict(climb, incline_deg=20, min=0.95)], budget=1000, confirm=20)
+    tr = open_design(search(cfg, tmp_path / "none.nc", progress=False, runner=Synthetic()))
+    assert tr.attrs["recommended"] == -1 and not tr["designs"]["feasible"].values.any()
+    assert np.isnan(tr["confirm"]["value"].values).all()
+    cfg = cfg_of(constraints=[dict(climb, incline_deg=20, max=0.5)], budget=1400, confirm=20)  # only the poor designs
+    tr = open_design(search(cfg, tmp_path / "some.nc", progress=False, runner=Synthetic()))
+    ds = tr["designs"].to_dataset()
+    rec = int(tr.attrs["recommended"])
+    assert ds["feasible"].values[rec] and ds["feasible"].values.sum() < ds.sizes["design"]
+    assert float(ds["climb20_aluminum"][rec]) <= 0.5

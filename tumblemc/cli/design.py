@@ -90,13 +90,19 @@ def _summary(path: Path) -> None:
 
     tree = open_design(path)
     ds = tree["designs"].to_dataset()
-    objs = [o for o in str(tree.attrs["objectives"]).split(",") if o]
+    objs = [o for o in f"{tree.attrs['objectives']},{tree.attrs['constraints']}".split(",") if o]
     variables = [str(v) for v in ds.data_vars if ds[v].attrs.get("long_name", "").startswith("design variable")]
     rec = int(tree.attrs["recommended"])
     stopped = int(ds["stopped_early"].sum())
     print(
         f"{path}: {ds.sizes['design']} designs ({stopped} stopped early), {tree.attrs['simulations']} simulations of {tree.attrs['budget']}"
     )
+    nfeas = int(ds["feasible"].sum())
+    if tree.attrs["constraints"]:
+        print(f"{nfeas} of {ds.sizes['design']} designs meet the constraints ({tree.attrs['constraints']}) on their search robots")
+    if rec < 0 and not ds["pareto"].any():
+        print("no design meets the constraints: nothing to recommend (widen the bounds or relax a constraint)")
+        return
     rows = []
     show = [rec] if rec >= 0 else [int(i) for i in ds["design"].values[ds["pareto"].values]]
     for i in show:

@@ -328,8 +328,9 @@ def search(
         rec = None
         if len(cfg.objectives) == 1:
             X, Y, V = s.matrix()
-            rec, _ = model_best(X, Y[:, 0], V[:, 0], cfg.seed, s.feasible())
-            if cfg.confirm:
+            feasible = s.feasible()
+            rec = model_best(X, Y[:, 0], V[:, 0], cfg.seed, feasible)[0] if feasible.any() else None
+            if rec is not None and cfg.confirm:
                 s.evaluate([rec], range(cfg.confirm), FRESH)
         bar.close()
         write_result(out, s, rec)
