@@ -22,7 +22,8 @@ def test_campaign_quick(tmp_path: Path) -> None:
     dc.main(["synthetic", *common, "--seeds", "1", "--strategies", "sobol"])
     dc.main(["search", *common, "--seeds", "1", "--strategies", "gp"])
     dc.main(["front", *common, "--seeds", "1", "--strategies", "gp"])
-    for name in ("crn.md", "emulate.md", "synthetic.md", "search_gp.md", "front_gp.md"):
+    dc.main(["front_emulate", *common, "--seeds", "1"])
+    for name in ("crn.md", "emulate.md", "synthetic.md", "search_gp.md", "front_gp.md", "front_emulate.md"):
         text = (tmp_path / name).read_text()
         assert text.count("\n|") >= 2, name  # a header and at least one row
     # the grid resumes from its chunks: a second run simulates nothing and gives the same values
