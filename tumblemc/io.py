@@ -122,13 +122,7 @@ class ShardStore:
         if fresh and self.dir.exists():
             shutil.rmtree(self.dir)
         if meta.exists():
-            stored = read_study_json(meta)
-            if stored.get("config_hash") != self.config_hash:
-                raise StudyStateError(
-                    f"{self.dir} holds runs of a different config (hash {str(stored.get('config_hash', '?'))[:12]}, "
-                    f"this config {self.config_hash[:12]}); rerun with --fresh (fresh=True) to discard them, "
-                    f"or give another --out"
-                )
+            check_parts_belong(self.dir, self.config_hash)
             return
         self.dir.mkdir(parents=True, exist_ok=True)
         _atomic_write_bytes(meta, json.dumps({"config_hash": self.config_hash, "config": json.loads(self.config_json)}, indent=1).encode())
@@ -202,6 +196,20 @@ class ShardStore:
     def remove(self) -> None:
         """Delete the shard directory and everything in it."""
         shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def check_parts_belong(folder: Path, config_hash: str) -> None:
+    """Raise :class:`StudyStateError` if the shard folder ``folder`` holds runs of another config (nothing is written)."""
+    meta = folder / "study.json"
+    if not meta.exists():
+        return
+    stored = read_study_json(meta)
+    if stored.get("config_hash") != config_hash:
+        raise StudyStateError(
+            f"{folder} holds runs of a different config (hash {str(stored.get('config_hash', '?'))[:12]}, "
+            f"this config {config_hash[:12]}); rerun with --fresh (fresh=True) to discard them, "
+            f"or give another --out"
+        )
 
 
 def read_study_json(meta: Path) -> dict[str, Any]:
@@ -471,6 +479,7 @@ __all__ = [
     "netcdf_ready",
     "open_result",
     "parts_dir",
+    "check_parts_belong",
     "read_study_json",
     "remove_stale_temps",
     "result_attrs",

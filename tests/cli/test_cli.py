@@ -158,3 +158,27 @@ def test_unwritable_output_is_a_clear_error(tmp_path, capsys):  # type: ignore[n
     rc = main(["simulate", "--duration-s", SHORT, "--out", str(tmp_path)])
     assert rc == 2
     assert "error:" in capsys.readouterr().err
+
+
+def test_study_run_refuses_a_changed_config_before_compiling(tmp_path, capsys, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Shards of another config: one line, before the header and before any kernel is compiled or worker started."""
+    import json
+
+    from tumblemc.io import parts_dir
+
+    out = tmp_path / "s.nc"
+    parts = parts_dir(out)
+    parts.mkdir()
+    (parts / "study.json").write_text(json.dumps({"config_hash": "0" * 64, "config": {}}))
+    import tumblemc.study.engine as engine
+
+    def no(*a: object, **k: object) -> None:
+        raise AssertionError("compiled or started workers before refusing")
+
+    monkeypatch.setattr(engine, "warm_kernels", no)
+    monkeypatch.setattr(engine, "local_client", no)
+    assert main(["study", "run", "studies/smoke.toml", "--out", str(out), "--workers", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error:") and err.count("\n") == 1  # no header, no "compiling": one line
+    assert "different config" in err and "--fresh" in err
+    assert json.loads((parts / "study.json").read_text())["config_hash"] == "0" * 64  # nothing overwritten

@@ -212,6 +212,11 @@ def _run(args: argparse.Namespace) -> int:
     say = not args.no_progress
     path.parent.mkdir(parents=True, exist_ok=True)
     with StudyLock(path):  # before anything is compiled or started: a second run on this output stops here
+        if not args.fresh:  # a changed config is refused before the header and the compilation
+            from tumblemc.io import check_parts_belong, parts_dir
+            from tumblemc.study.identity import config_hash
+
+            check_parts_belong(parts_dir(path), config_hash(cfg))
         if say:
             print(study_header(cfg, path, where), file=sys.stderr, flush=True)
         client = None
