@@ -170,13 +170,14 @@ def test_study_run_refuses_a_changed_config_before_compiling(tmp_path, capsys, m
     parts = parts_dir(out)
     parts.mkdir()
     (parts / "study.json").write_text(json.dumps({"config_hash": "0" * 64, "config": {}}))
+    import tumblemc.study.cluster as cluster
     import tumblemc.study.engine as engine
 
     def no(*a: object, **k: object) -> None:
         raise AssertionError("compiled or started workers before refusing")
 
     monkeypatch.setattr(engine, "warm_kernels", no)
-    monkeypatch.setattr(engine, "local_client", no)
+    monkeypatch.setattr(cluster, "local_client", no)
     assert main(["study", "run", "studies/smoke.toml", "--out", str(out), "--workers", "0"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error:") and err.count("\n") == 1  # no header, no "compiling": one line

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -258,9 +257,7 @@ def test_design_files_of_the_repository_parse() -> None:
 
 
 def test_every_corner_is_checked() -> None:
-    """Buildability is refused at any corner of the box, not only the upper one."""
-    corners = list(itertools.product((50 * UM, 400 * UM), repeat=2))
-    assert len(corners) == 4
+    """Buildability is refused at any corner of the box, not only the upper one (here the lower r_inner is fine, the upper is not)."""
     with pytest.raises(ConfigError, match="r_inner"):
         parse_design(
             {
@@ -271,7 +268,6 @@ def test_every_corner_is_checked() -> None:
                 "objectives": [{"kind": "speed", "substrate": "paper"}],
             }
         )
-    assert math.isfinite(true_p({"spike_base": 50 * UM, "spike_height": 50 * UM}))
 
 
 @pytest.mark.parametrize("kind", ["incline_quantile", "critical_field"])

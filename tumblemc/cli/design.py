@@ -61,24 +61,16 @@ def _run(args: Any) -> int:
         f"budget {cfg.budget} simulations",
         file=sys.stderr,
     )
-    client = None
-    if args.scheduler:
-        from distributed import Client
+    from tumblemc.study.cluster import command_client
 
-        client = Client(args.scheduler)
-    elif args.workers != 0:
-        from tumblemc.study.cluster import local_client
-
+    if not args.scheduler and args.workers != 0:
         print("compiling kernels (or loading them from the cache) and starting the workers ...", file=sys.stderr, flush=True)
-        client = local_client(args.workers)
     try:
-        search(cfg, out, client, fresh=args.fresh, progress=not args.no_progress)
-    finally:
-        if client is not None:
-            client.close()
-            cl = getattr(client, "cluster", None)
-            if cl is not None and not args.scheduler:
-                cl.close()
+        with command_client(args.scheduler, args.workers) as client:
+            search(cfg, out, client, fresh=args.fresh, progress=not args.no_progress)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished chunks are kept in {out}.parts; run the same command again to resume", file=sys.stderr)
+        return 130
     _summary(out)
     if args.plot:
         _plot_to(out, None)

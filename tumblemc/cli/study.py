@@ -200,8 +200,9 @@ def _run(args: argparse.Namespace) -> int:
     import os
 
     from tumblemc.io import StudyLock
+    from tumblemc.study.cluster import command_client
     from tumblemc.study.config import load_config
-    from tumblemc.study.engine import default_output, local_client, run_study, study_status, warm_kernels
+    from tumblemc.study.engine import default_output, run_study, study_status, warm_kernels
 
     cfg = load_config(args.config)
     path = Path(args.out) if args.out else default_output(cfg)
@@ -219,7 +220,6 @@ def _run(args: argparse.Namespace) -> int:
             check_parts_belong(parts_dir(path), config_hash(cfg))
         if say:
             print(study_header(cfg, path, where), file=sys.stderr, flush=True)
-        client = None
         try:
             if not args.scheduler:  # a remote cluster's workers compile their own
                 if say:
@@ -228,24 +228,13 @@ def _run(args: argparse.Namespace) -> int:
                 warm_kernels()  # the local cluster's workers then load them from the cache
                 if say:
                     print(f" ready in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
-            if args.scheduler:
-                from distributed import Client
-
-                client = Client(args.scheduler)
-            elif workers != 0:
-                client = local_client(workers, dashboard=args.dashboard)
-                if args.dashboard:
+            with command_client(args.scheduler, workers, args.dashboard) as client:
+                if client is not None and args.dashboard and not args.scheduler:
                     print(f"dask dashboard: {client.dashboard_link}" + _bokeh_note(), file=sys.stderr, flush=True)
-            res = run_study(cfg, client, out=path, fresh=args.fresh, progress=say, batch_size=args.batch_size, lock=False)
+                res = run_study(cfg, client, out=path, fresh=args.fresh, progress=say, batch_size=args.batch_size, lock=False)
         except KeyboardInterrupt:
             print("\ninterrupted: finished runs are kept; run the same command again to resume", file=sys.stderr)
             return 130
-        finally:
-            if client is not None:
-                cluster = getattr(client, "cluster", None) if not args.scheduler else None
-                client.close()
-                if cluster is not None:
-                    cluster.close()
     print(f"wrote {res.path}")
     print(format_table(study_status(res.path)))
     table = success_table(res.maps)

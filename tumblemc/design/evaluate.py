@@ -27,7 +27,6 @@ from scipy import stats
 from tumblemc.design.config import DesignConfig, Objective
 from tumblemc.design.families import Design, build
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
-from tumblemc.schema import sampled_name
 from tumblemc.study.distributions import POSTERIOR_SLOT, UNCERTAIN_PARAMS, mc_slot, nominal_value
 from tumblemc.study.threshold import search_rows
 
@@ -214,13 +213,6 @@ def _quantile(obj: Objective, v: np.ndarray, level: float) -> Estimate:
     spread = float(np.ptp(finite)) if len(finite) > 1 else 1.0
     width = (hi - lo) if math.isfinite(hi - lo) else spread
     return Estimate(val, lo, hi, n, (width / (2 * 1.96)) ** 2 + 1e-12)
-
-
-def sampled_columns(cfg: DesignConfig, obj: Objective, samples: Sequence[int], stream: int) -> dict[str, np.ndarray]:
-    """The sampled parameters of robots ``samples`` on ``obj``'s substrate, by :func:`sampled_name` (for the result)."""
-    params = robot_params(cfg, obj, uniforms(cfg, samples, stream))
-    names = sorted({k for p in params for k in p})
-    return {sampled_name(k): np.array([p[k] for p in params]) for k in names}
 
 
 __all__ = ["FRESH", "SEARCH", "Chunk", "Estimate", "estimate", "execute", "robot_dims", "robot_params", "time_grid", "uniforms"]

@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from tumblemc.model.params import get_preset
-from tumblemc.model.shapes.library import cuboid, curved, spiked, spiked_ends
+from tumblemc.model.shapes.library import cuboid, curved, spiked, spiked_ends, spiked_ends_profile, spiked_profile
 from tumblemc.model.shapes.profile import extruded
 from tumblemc.model.shapes.types import ALUMINUM_ROBOT_LWH_M, Shape
 
@@ -61,12 +61,10 @@ class Family:
     defaults: Mapping[str, float]
     builder: Callable[..., Shape]
     profile: Callable[..., np.ndarray] | None = None
-    doc: str = ""
-    units: Mapping[str, str] = field(default_factory=dict)
 
     def unit(self, var: str) -> str:
         """The unit of dimension ``var``: ``"degree"`` or ``"m"``."""
-        return self.units.get(var, "degree" if var.endswith("_deg") else "m")
+        return "degree" if var.endswith("_deg") else "m"
 
     def dims(self, values: Mapping[str, float]) -> dict[str, float]:
         """The defaults with ``values`` in place; an unknown name is refused with the known ones."""
@@ -77,72 +75,36 @@ class Family:
 
 
 def _spiked_ends_profile(length: float, bar_height: float, spike_base: float, spike_height: float, thickness: float) -> np.ndarray:
-    del thickness
-    hy, hz, b = length / 2, bar_height / 2, spike_base
-    az, ay = hz + spike_height, hy - b / 2
-    return np.array(
-        [
-            (-hy, -hz),
-            (-ay, -az),
-            (-hy + b, -hz),
-            (hy - b, -hz),
-            (ay, -az),
-            (hy, -hz),
-            (hy, hz),
-            (ay, az),
-            (hy - b, hz),
-            (-hy + b, hz),
-            (-ay, az),
-            (-hy, hz),
-        ]
-    )
+    return np.array(spiked_ends_profile(length, bar_height, spike_base, spike_height))
 
 
 def _spiked_profile(length: float, bar_height: float, spike_base: float, apex_z: float, thickness: float) -> np.ndarray:
-    del thickness
-    hy, hz, hb = length / 2, bar_height / 2, spike_base / 2
-    return np.array([(-hy, -hz), (-hb, -hz), (0.0, -apex_z), (hb, -hz), (hy, -hz), (hy, hz), (hb, hz), (0.0, apex_z), (-hb, hz), (-hy, hz)])
+    return np.array(spiked_profile(length, bar_height, spike_base, apex_z))
 
 
 def _cuboid_profile(length: float, width: float, height: float) -> np.ndarray:
-    del width
     return np.array([(-length / 2, -height / 2), (length / 2, -height / 2), (length / 2, height / 2), (-length / 2, height / 2)])
 
 
-def _cuboid_builder(length: float, width: float, height: float, mass_from: str = "profile") -> Shape:
-    from dataclasses import replace
-
-    from tumblemc.model.shapes.profile import cuboid_inertia
-
-    shp = cuboid(length, width, height)
-    ipm = cuboid_inertia(*ALUMINUM_ROBOT_LWH_M) if mass_from == "aluminum_robot" else shp.inertia_per_mass
-    return replace(shp, inertia_per_mass=ipm, mass_model=mass_from)
-
-
 FAMILIES: dict[str, Family] = {
-    "cuboid": Family(
-        "cuboid", {"length": 800e-6, "width": 400e-6, "height": 100e-6}, _cuboid_builder, _cuboid_profile, "L (y) x W (x) x H (z)"
-    ),
+    "cuboid": Family("cuboid", {"length": 800e-6, "width": 400e-6, "height": 100e-6}, cuboid, _cuboid_profile),
     "spiked": Family(
         "spiked",
         {"length": 800e-6, "bar_height": 150e-6, "spike_base": 200e-6, "apex_z": 325e-6, "thickness": 300e-6},
         spiked,
         _spiked_profile,
-        "a bar with one triangular spike on each long side at mid-length",
     ),
     "spiked_ends": Family(
         "spiked_ends",
         {"length": 800e-6, "bar_height": 150e-6, "spike_base": 100e-6, "spike_height": 125e-6, "thickness": 300e-6},
         spiked_ends,
         _spiked_ends_profile,
-        "a bar with four triangular corner spikes (base flush with each end)",
     ),
     "curved": Family(
         "curved",
         {"r_outer": 1250e-6, "r_inner": 1100e-6, "half_angle_deg": 25.0, "thickness": 400e-6},
         curved,
         None,
-        "an annular sector (outer arc, inner chord contact)",
     ),
 }
 
@@ -163,7 +125,7 @@ def profile_family(name: str, profile: Callable[..., Any], defaults: Mapping[str
     def prof(**dims: float) -> np.ndarray:
         return np.asarray(profile(**dims), dtype=float)
 
-    return Family(name, dict(defaults), build, prof, "a user profile")
+    return Family(name, dict(defaults), build, prof)
 
 
 def get_family(name: str) -> Family:

@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -67,9 +66,9 @@ def _units(cfg: DesignConfig, var: str) -> str:
     return get_family(cfg.family).unit(var)
 
 
-def build_dataset(s: Search, rec: int | None) -> xr.DataTree:
-    """The result tree of search ``s`` (module docstring)."""
-    from tumblemc.design.strategies import model_best
+def build_dataset(s: Search, rec: int | None, means: np.ndarray | None = None) -> xr.DataTree:
+    """The result tree of search ``s`` (module docstring); ``means``: the model's posterior means (larger is better; one objective)."""
+    from tumblemc.design.search import config_dict, config_hash
 
     cfg = s.cfg
     nd = len(s.designs)
@@ -110,8 +109,7 @@ def build_dataset(s: Search, rec: int | None) -> xr.DataTree:
     feas = s.feasible()
     des["feasible"] = ("design", feas, {"long_name": "estimates meet every constraint"})
     des["pareto"] = ("design", pareto_mask(np.where(feas[:, None], Y, np.nan)), {"long_name": "feasible and not dominated (estimates)"})
-    if len(cfg.objectives) == 1 and nd:
-        _, means = model_best(X, Y[:, 0], V[:, 0], cfg.seed)
+    if means is not None:
         sign = 1.0 if cfg.objectives[0].goal == "max" else -1.0
         des["model_mean"] = (
             "design",
@@ -157,11 +155,6 @@ def build_dataset(s: Search, rec: int | None) -> xr.DataTree:
             "n_sim": ("run", np.array(cols["n_sim"], np.int32), {"long_name": "simulations behind the value"}),
         }
     )
-    cj = asdict(cfg)
-    cj.pop("source", None)
-    cj["posterior"] = cfg.posterior.to_dict() if cfg.posterior is not None else None
-    from tumblemc.design.search import config_hash
-
     attrs = {
         "title": f"tumblemc design search {cfg.name}",
         "family": cfg.family,
@@ -172,16 +165,16 @@ def build_dataset(s: Search, rec: int | None) -> xr.DataTree:
         "simulations": int(s.nsim),
         "budget": int(cfg.budget),
         "recommended": int(rec if rec is not None else -1),
-        "config_json": json.dumps(cj, default=str),
+        "config_json": json.dumps(config_dict(cfg), default=str),
         "config_hash": config_hash(cfg),
         "tumblemc_version": __version__,
     }
     return xr.DataTree.from_dict({"/": xr.Dataset(attrs=attrs), "designs": designs, "confirm": confirm, "runs": runs})
 
 
-def write_result(path: Path, s: Search, rec: int | None) -> None:
+def write_result(path: Path, s: Search, rec: int | None, means: np.ndarray | None = None) -> None:
     """Write the result atomically (a temporary file renamed over ``path``)."""
-    tree = build_dataset(s, rec)
+    tree = build_dataset(s, rec, means)
     tmp = path.with_name(path.name + ".tmp")
     tree.to_netcdf(tmp, engine="netcdf4")
     os.replace(tmp, path)

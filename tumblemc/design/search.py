@@ -51,12 +51,17 @@ from tumblemc.io import StudyLock, StudyStateError
 SCHEME = "tumblemc-design-1"
 
 
-def config_hash(cfg: DesignConfig) -> str:
-    """Identity of a design problem: sha256 of its canonical JSON (the TOML text and the posterior's draws left out)."""
+def config_dict(cfg: DesignConfig) -> dict[str, Any]:
+    """The problem as plain data: the TOML text left out, the posterior by its file and sha256 (not its draws)."""
     d = asdict(cfg)
     d.pop("source", None)
     d["posterior"] = cfg.posterior.to_dict() if cfg.posterior is not None else None
-    return hashlib.sha256(json.dumps([SCHEME, d], sort_keys=True, default=str).encode()).hexdigest()[:16]
+    return d
+
+
+def config_hash(cfg: DesignConfig) -> str:
+    """Identity of a design problem: sha256 of :func:`config_dict`'s canonical JSON."""
+    return hashlib.sha256(json.dumps([SCHEME, config_dict(cfg)], sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 class DesignStore:
@@ -325,19 +330,20 @@ def search(
             X, Y, V = s.matrix()
             ids = s.add(propose(cfg.strategy, X, Y, V, n_new, cfg.seed * 1009 + r, len(s.designs)), r)
             s.evaluate_round(ids)
-        rec = None
+        rec, means = None, None
         if len(cfg.objectives) == 1:
             X, Y, V = s.matrix()
             feasible = s.feasible()
-            rec = model_best(X, Y[:, 0], V[:, 0], cfg.seed, feasible)[0] if feasible.any() else None
+            _, means = model_best(X, Y[:, 0], V[:, 0], cfg.seed)
+            rec = int(np.argmax(np.where(feasible, means, -np.inf))) if feasible.any() else None
             if rec is not None and cfg.confirm:
                 s.evaluate([rec], range(cfg.confirm), FRESH)
         bar.close()
-        write_result(out, s, rec)
+        write_result(out, s, rec, means)
         store.remove()
     if progress:
         print(f"wrote {out} ({len(s.designs)} designs, {s.nsim} simulations)", file=sys.stderr)
     return out
 
 
-__all__ = ["DesignStore", "Search", "config_hash", "search"]
+__all__ = ["DesignStore", "Search", "config_dict", "config_hash", "search"]

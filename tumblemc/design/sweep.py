@@ -1,6 +1,6 @@
 """The authors' design sweep of the spiked-ends robot, repeated (``tumblemc design sweep``).
 
-Their sweep (issue 44; from their code): spike base and spike height varied together
+Their sweep (as their code does it): spike base and spike height varied together
 along the diagonal, 20 designs from 50 to 400 um, one deterministic run per design on
 aluminum at 20 mT and 10 Hz (nominal parameters, no uncertainty), the incline raised in
 0.125 deg steps until the robot slides, mass, inertia and magnetic volume held fixed.

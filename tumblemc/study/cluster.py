@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import time
 import warnings
+from collections.abc import Iterator
 from typing import Any
 
 from tumblemc.model.rows import TimeGrid, simulate_rows
@@ -52,6 +54,29 @@ def local_client(workers: int | None = None, dashboard: bool = False) -> Any:
     finally:
         signal.signal(signal.SIGINT, previous)
     return Client(cluster)
+
+
+@contextlib.contextmanager
+def command_client(scheduler: str | None, workers: int | None, dashboard: bool = False) -> Iterator[Any]:
+    """The dask client of a command: an existing scheduler's, an embedded local cluster's, or None (``workers == 0``: in process).
+
+    On exit the client is closed, and the local cluster with it (a remote scheduler is left running).
+    """
+    client = None
+    try:
+        if scheduler:
+            from distributed import Client
+
+            client = Client(scheduler)
+        elif workers != 0:
+            client = local_client(workers, dashboard=dashboard)
+        yield client
+    finally:
+        if client is not None:
+            cluster = None if scheduler else getattr(client, "cluster", None)
+            client.close()
+            if cluster is not None:
+                cluster.close()
 
 
 def n_workers(client: Any) -> int:

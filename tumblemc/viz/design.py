@@ -25,8 +25,7 @@ def _label(ds: xr.Dataset, name: str) -> str:
     if "label" in ds[name].attrs:
         return str(ds[name].attrs["label"])
     u = ds[name].attrs.get("units", "")
-    scale, unit = (1e6, "um") if u == "m" else (1.0, u)
-    del scale
+    unit = "um" if u == "m" else u
     return f"{name} ({unit})" if unit and unit != "1" else name
 
 

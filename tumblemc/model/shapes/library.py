@@ -13,17 +13,20 @@ from dataclasses import replace
 import numpy as np
 
 from tumblemc.model.shapes.profile import check_dim, cuboid_inertia, extruded
-from tumblemc.model.shapes.types import Constraint, Piece, Shape
+from tumblemc.model.shapes.types import ALUMINUM_ROBOT_LWH_M, MASS_MODELS, Constraint, Piece, Shape
 
 
-def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6) -> Shape:
+def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6, *, mass_from: str = "profile") -> Shape:
     """The paper's cuboid robot (MODEL.md "Shapes"): L (y) x W (x) x H (z), in m.
 
     One piece with six half-spaces, all real faces: the big faces ``+-z`` adhere with
     ``L W``, the sides ``+-x`` with ``L H``, the ends ``+-y`` with ``W H``. Written out in
     closed form (``extruded`` of its rectangle gives the same constraints, areas and
-    inertia; the tests check that).
+    inertia; the tests check that). ``mass_from="aluminum_robot"``: the aluminum robot's
+    inertia whatever the dimensions (the authors' design sweep; the same at the defaults).
     """
+    if mass_from not in MASS_MODELS:
+        raise ValueError(f"mass_from={mass_from!r} is not allowed (allowed: {', '.join(MASS_MODELS)})")
     for nm, v in (("length", length), ("width", width), ("height", height)):
         if not (np.isfinite(v) and 1e-6 <= v <= 1e-1):
             raise ValueError(f"{nm}={v!r} is out of range (allowed: 1e-6 to 1e-1 m; give SI metres)")
@@ -38,8 +41,8 @@ def cuboid(length: float = 800e-6, width: float = 400e-6, height: float = 100e-6
     )
     verts = np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     outline = np.array([[-hy, -hz], [hy, -hz], [hy, hz], [-hy, hz], [-hy, -hz]])
-    ipm = cuboid_inertia(length, width, height)
-    return Shape("cuboid", (Piece(cons, verts),), outline, width, 2 * (length + height), ipm, "profile", length * height)
+    ipm = cuboid_inertia(*((length, width, height) if mass_from == "profile" else ALUMINUM_ROBOT_LWH_M))
+    return Shape("cuboid", (Piece(cons, verts),), outline, width, 2 * (length + height), ipm, mass_from, length * height)
 
 
 def _relabel(shape: Shape, labels: dict[str, str]) -> Shape:
@@ -47,6 +50,39 @@ def _relabel(shape: Shape, labels: dict[str, str]) -> Shape:
     (piece,) = shape.pieces
     cons = tuple(replace(c, label=labels.get(c.label, c.label)) for c in piece.constraints)
     return replace(shape, pieces=(replace(piece, constraints=cons),))
+
+
+def spiked_profile(length: float, bar_height: float, spike_base: float, apex_z: float) -> list[tuple[float, float]]:
+    """The spiked robot's profile (y, z), m: a bar with one triangular spike on each long side at mid-length."""
+    hy, hz, hb = length / 2, bar_height / 2, spike_base / 2
+    return [(-hy, -hz), (-hb, -hz), (0.0, -apex_z), (hb, -hz), (hy, -hz), (hy, hz), (hb, hz), (0.0, apex_z), (-hb, hz), (-hy, hz)]
+
+
+def spiked_ends_profile(length: float, bar_height: float, spike_base: float, spike_height: float) -> list[tuple[float, float]]:
+    """The spiked-ends robot's profile (y, z), m: a bar with four corner spikes, base flush with each end.
+
+    With ``spike_base = length / 2`` the two spikes of a side meet at mid-length: one vertex there.
+    """
+    hy, hz, b = length / 2, bar_height / 2, spike_base
+    az, ay = hz + spike_height, hy - b / 2
+    prof = [
+        (-hy, -hz),
+        (-ay, -az),
+        (-hy + b, -hz),
+        (hy - b, -hz),
+        (ay, -az),
+        (hy, -hz),
+        (hy, hz),
+        (ay, az),
+        (hy - b, hz),
+        (-hy + b, hz),
+        (-ay, az),
+        (-hy, hz),
+    ]
+    if abs(2 * b - length) <= 1e-12 * length:
+        prof[2], prof[8] = (0.0, -hz), (0.0, hz)
+        prof = [p for k, p in enumerate(prof) if k not in (3, 9)]
+    return prof
 
 
 def spiked(
@@ -83,8 +119,7 @@ def spiked(
         raise ValueError(f"spike_base={spike_base!r} is not allowed (allowed: < length = {length!r} m)")
     if not apex_z > bar_height / 2:
         raise ValueError(f"apex_z={apex_z!r} is not allowed (allowed: > bar_height / 2 = {bar_height / 2!r} m)")
-    hy, hz, hb = length / 2, bar_height / 2, spike_base / 2
-    prof = [(-hy, -hz), (-hb, -hz), (0.0, -apex_z), (hb, -hz), (hy, -hz), (hy, hz), (hb, hz), (0.0, apex_z), (-hb, hz), (-hy, hz)]
+    prof = spiked_profile(length, bar_height, spike_base, apex_z)
     shp = extruded(prof, thickness, name="spiked", mass_from=mass_from)
     labels = {"+y face": "+y end", "-y face": "-y end", "+z bridge #1": "+z flank +y", "+z bridge #2": "+z flank -y"}
     labels |= {"-z bridge #1": "-z flank -y", "-z bridge #2": "-z flank +y"}
@@ -126,25 +161,7 @@ def spiked_ends(
         raise ValueError(
             f"spike_base={spike_base!r} is not allowed: the spikes of one side would overlap (allowed: <= length / 2 = {length / 2!r} m)"
         )
-    hy, hz, b = length / 2, bar_height / 2, spike_base
-    az, ay = hz + spike_height, hy - b / 2
-    prof = [
-        (-hy, -hz),
-        (-ay, -az),
-        (-hy + b, -hz),
-        (hy - b, -hz),
-        (ay, -az),
-        (hy, -hz),
-        (hy, hz),
-        (ay, az),
-        (hy - b, hz),
-        (-hy + b, hz),
-        (-ay, az),
-        (-hy, hz),
-    ]
-    if abs(2 * b - length) <= 1e-12 * length:  # spike_base = length / 2: the spikes of a side meet at mid-length, one vertex there
-        prof[2], prof[8] = (0.0, -hz), (0.0, hz)
-        prof = [p for k, p in enumerate(prof) if k not in (3, 9)]
+    prof = spiked_ends_profile(length, bar_height, spike_base, spike_height)
     shp = extruded(prof, thickness, name="spiked_ends", mass_from=mass_from)
     labels = {"+y face #1": "+y flank -z", "+y face #2": "+y end", "+y face #3": "+y flank +z"}
     labels |= {"-y face #1": "-y flank +z", "-y face #2": "-y end", "-y face #3": "-y flank -z"}
