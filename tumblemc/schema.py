@@ -80,6 +80,14 @@ RUN_VARIABLES: dict[str, dict[str, Any]] = {
     },
     "kinetic_energy": {"units": "J", "long_name": "kinetic energy"},
     "potential_energy_released": {"units": "J", "long_name": "most work gravity and the electrostatic force have done since the start"},
+    "work_field": {"units": "J", "long_name": "work of the field: the magnetic energy's change due to the field's own time variation"},
+    "energy_excess": {
+        "units": "J",
+        "long_name": "mechanical energy above its start beyond the field's work and every non-conservative force's (numerical)",
+    },
+    "energy_excess_max": {"units": "J", "long_name": "the most the energy excess has reached since the start"},
+    "magnetic_exchange": {"units": "J", "long_name": "magnetic energy the body's rotation released (what the torque's work approximates)"},
+    "magnetic_energy_released": {"units": "J", "long_name": "most magnetic energy the magnet has handed to the body since the start"},
     "potential_energy": {"units": "J", "long_name": "potential energy of gravity and of the electrostatic force, relative to the start"},
     "magnetic_energy": {"units": "J", "long_name": "magnetic energy -V_m (R E_b) . B"},
 }
@@ -243,15 +251,16 @@ OUTCOME_ATTRS: dict[str, dict[str, Any]] = {
     "energy_gain": {
         "units": "J",
         "long_name": (
-            "numerical energy gain of the energy ledger: kinetic energy no force supplied plus positive normal work, summed per step"
+            "numerical energy gain of the energy ledger, of the account with the larger ratio: the contact gain (kinetic"
+            " energy no force supplied plus positive normal work, summed per step) or the energy excess (the most the"
+            " energy exceeded the field's work)"
         ),
     },
     "energy_gain_ratio": {
         "units": "1",
         "long_name": (
-            "energy_gain over the run's energy scale (field work bound + initial kinetic energy + potential energy released"
-            " + m g x 1e-4 m);"
-            " status energy_gain above 0.01"
+            "the larger of: contact gain over (field work bound + initial kinetic energy + potential energy released"
+            " + m g x 1e-4 m), energy excess over the energy the run received; status energy_gain above 0.01"
         ),
     },
     "field_work_bound": {"units": "J", "long_name": "most work the rotating field can do on the magnet in the run: |m||B| (2 + 2 pi f T)"},

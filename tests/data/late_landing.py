@@ -41,6 +41,7 @@ RUN = {
     "mu": 0.7825397772678971,
     "offset_deg": 28.208096218362247,
     "periods": 2.0,
+    "dt": 5e-5,  # the step it was found at (the default at this field is now 2.5e-5 s)
 }
 STEPS = 69031  # steps taken before the landing
 RUN_HALVE = {
@@ -53,6 +54,7 @@ RUN_HALVE = {
     "mu": 0.5866561928138672,
     "offset_deg": 9.213948934233612,
     "periods": 2.0,
+    "dt": 5e-5,  # the step it was found at (the default at this field is now 2.5e-5 s)
 }
 STEPS_HALVE = 76759
 # each saved case: its keys' prefix -> (the run, steps taken before the landing)

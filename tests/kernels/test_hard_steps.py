@@ -25,7 +25,7 @@ from tumblemc.kernels.stepper import Model, Start
 from tumblemc.model.run import prepare, run_inputs
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.solver_options import SolverOptions
-from tumblemc.testing import SNAP_HOP
+from tumblemc.testing import SNAP_HOP, SNAP_HOP_DT
 
 # ---- Landings no strategy solved: the saved steps and their guesses ----------------------
 # Landings that no solve strategy solved (docs/notes/solver_gaps.md).
@@ -59,7 +59,7 @@ from tumblemc.testing import SNAP_HOP
 
 LANDING_DATA = Path(__file__).resolve().parents[1] / "data" / "landing_steps.npz"
 OUT_OF_PLANE_2019_1 = {"offset_deg": 19.553717386076162, "offset_axis": (-0.8541623, -0.69975145, -1.01436414)}
-REPRO_1 = {**SNAP_HOP, "duration_s": 4.0}
+REPRO_1 = {**SNAP_HOP, "dt": SNAP_HOP_DT, "duration_s": 4.0}
 LANDING_CASES = {
     "edge": {"preset": "paper", "incline_deg": 0.0, "duration_s": 2.0, **OUT_OF_PLANE_2019_1},
     "impact": {**REPRO_1, "dt": 1.25e-5},

@@ -18,7 +18,11 @@ from .layout import (
     ENERGY_GAIN_TOL,
     L_GAIN,
     L_KE,
+    L_MAGMAX,
     L_POTMAX,
+    L_UHI,
+    L_ULO,
+    L_XGAIN,
     O_DECIDE,
     O_DECIDE_NEED,
     O_DECIDE_STEP,
@@ -179,15 +183,22 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
             sub += rec[r, R_SUB]
             fb += rec[r, R_FALLBACK]
             pen = max(pen, rec[r, R_PEN])
-        # the energy ledger's gain against field work bound + initial KE + potential energy
-        # released + m g x length unit (model/energy.py: energy_reference)
+        # the energy ledger's two accounts (model/energy.py: energy_accounts): the contact
+        # gain against the energy scale with the field's work bound, the energy excess
+        # against the energy the run received; the larger ratio decides
         t_run = rec[rows - 1, R_T] - rec[0, R_T]
-        eref = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G] + rec[rows - 1, R_LED + L_POTMAX]
+        base = rec[0, R_LED + L_KE] + prms[b, P_MASS] * prms[b, P_G] + rec[rows - 1, R_LED + L_POTMAX]
+        eref = base
         if prms[b, P_FIELD_ON] > 0.5:
             # a run stopped by an early decision: the whole run's field bound (its tolerance
             # and the field_work_bound column are the whole run's; the gain only grows)
             eref += field_work_bound(prms[b], n_steps * hs[b] if status == ST_DECIDED else t_run)
         gain = rec[rows - 1, R_LED + L_GAIN]
+        xref = base + rec[rows - 1, R_LED + L_MAGMAX] + (rec[rows - 1, R_LED + L_UHI] - rec[rows - 1, R_LED + L_ULO])
+        xgain = rec[rows - 1, R_LED + L_XGAIN]
+        if xgain * eref > gain * xref:  # xgain / xref > gain / eref (both references > 0)
+            gain = xgain
+            eref = xref
         if status == ST_STOPPED:  # gave up after opts[O_MAXFAIL] failed steps
             code = BATCH_FAILED_STEPS
             prog = np.nan

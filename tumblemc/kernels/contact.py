@@ -34,6 +34,8 @@ from .layout import (
     P_T,
     P_TORQ,
     P_TORQUE_END,
+    S_B0,
+    S_B1,
     S_BEND,
     S_FEXT,
     S_H,
@@ -58,6 +60,22 @@ def norm3(a):  # type: ignore[no-untyped-def]
 
 
 @jit
+def step_fields(prm, t, h, sc, tmp):  # type: ignore[no-untyped-def]
+    """The field at both ends of the step, in torque units, into ``sc[S_B0:]`` and ``sc[S_B1:]``
+    (the ledger's field work; the torque's own terms are computed apart, as they always were)."""
+    if prm[P_FPROG] > 0.5:
+        program_field(prm, t, sc[S_B0 : S_B0 + 3])
+        program_field(prm, t + h, sc[S_B1 : S_B1 + 3])
+        return
+    field_dir(prm, t, tmp)
+    for i in range(3):
+        sc[S_B0 + i] = prm[P_TORQ] * tmp[i]
+    field_dir(prm, t + h, tmp)
+    for i in range(3):
+        sc[S_B1 + i] = prm[P_TORQ] * tmp[i]
+
+
+@jit
 def prepare_step(state, t, h, prm, area_prev, touching_prev, scr):  # type: ignore[no-untyped-def]
     """Step data ``scr.sc`` for a step of length ``h`` from ``state`` at ``t``; returns the push along -n."""
     sc = scr.sc
@@ -78,7 +96,11 @@ def prepare_step(state, t, h, prm, area_prev, touching_prev, scr):  # type: igno
         for i in range(3):
             sc[S_TM + i] = 0.0
             sc[S_BEND + i] = 0.0
-    elif prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
+            sc[S_B0 + i] = 0.0
+            sc[S_B1 + i] = 0.0
+        return push
+    step_fields(prm, t, h, sc, tmp2)
+    if prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
         if prm[P_TORQUE_END] > 0.5:
             program_field(prm, t + h, sc[S_BEND : S_BEND + 3])
         else:

@@ -61,7 +61,9 @@ S_H = 13  # step length
 S_FEXT = 14  # applied force: gravity + electrostatic + adhesion (3)
 S_TM = 17  # magnetic torque when evaluated at the start of the step (3)
 S_BEND = 20  # P_TORQ * unit field at the end of the step, for torque="end" (3)
-N_SC = 23
+S_B0 = 23  # the field at the start of the step, in torque units (P_TORQ * unit field, or V_m |E| B(t)) (3)
+S_B1 = 26  # the same at the end of the step (3); the ledger's field work
+N_SC = 29
 
 # ---- contact block of one convex piece ---------------------------------------------
 B_A1 = 0
@@ -153,8 +155,8 @@ R_FAIL = 24  # steps in the interval with a sub-step that did not converge at th
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
 R_LOOSE = 28  # steps in the interval with a (sub-)step kept unsolved: residual between O_TOL and O_ACCEPT, or by O_IMPULSE
 R_LED = 29  # the energy ledger at the recorded instant (N_LED columns, L_* order)
-R_IMPULSE = 40  # steps in the interval with a (sub-)step kept by O_IMPULSE alone (a subset of R_LOOSE)
-N_REC = 41
+R_IMPULSE = 48  # steps in the interval with a (sub-)step kept by O_IMPULSE alone (a subset of R_LOOSE)
+N_REC = 49
 
 # ---- ledger columns (cumulative over the run, except L_KE) ---------------------------
 L_WMAG = 0  # work of the magnetic torque
@@ -168,7 +170,14 @@ L_BAL = 7  # balance: kinetic energy gained beyond the work of all forces (+ L_D
 L_GAIN = 8  # numerical energy gain: per step max(balance + max(W_n, 0), 0)
 L_KE = 9  # kinetic energy at the end of the last step (not cumulative)
 L_POTMAX = 10  # the most potential energy released so far: max over steps of L_WGRAV + L_WELECT
-N_LED = 11
+L_WFIELD = 11  # the field's own work: the magnetic energy's change due to the field's time variation
+L_EXCESS = 12  # energy above its start beyond the field's work and every force's: sum of L_BAL - L_DISS + torque error
+L_XGAIN = 13  # numerical energy excess: the most L_EXCESS has reached (0 at the start)
+L_WMAGX = 14  # the magnetic energy the rotation released: cumulative -dU_rot (what h T . w+ approximates)
+L_MAGMAX = 15  # the most energy the magnet has delivered: max over steps of L_WMAGX
+L_UHI = 16  # the magnetic energy's highest value so far, relative to its start
+L_ULO = 17  # its lowest (L_UHI - L_ULO: the magnetic energy's range, exchanged within a turn)
+N_LED = 18
 # a run whose numerical energy gain (L_GAIN) exceeds this fraction of its energy scale (field
 # work bound + initial kinetic energy + potential energy released + m g x length unit) is
 # flagged (model/energy.py)

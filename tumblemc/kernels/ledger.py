@@ -41,15 +41,22 @@ from .layout import (
     B_LT,
     L_BAL,
     L_DISS,
+    L_EXCESS,
     L_GAIN,
     L_KE,
+    L_MAGMAX,
     L_POTMAX,
+    L_UHI,
+    L_ULO,
     L_WADH,
     L_WELECT,
+    L_WFIELD,
     L_WFRIC,
     L_WGRAV,
     L_WMAG,
+    L_WMAGX,
     L_WN,
+    L_XGAIN,
     P_ADHC,
     P_EB,
     P_ELECT_FLIGHT,
@@ -61,6 +68,8 @@ from .layout import (
     P_O,
     P_T,
     P_TORQUE_END,
+    S_B0,
+    S_B1,
     S_BEND,
     S_TM,
 )
@@ -116,6 +125,8 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
         lw[9 + i] = z[3 + i] - state[10 + i]
     diss = 0.5 * m * dv2 + _ke_rot(lw, prm, lw[9:12])
     ke0 = 0.5 * m * v02 + _ke_rot(lw, prm, state[10:13])
+    # the magnet's direction times the field at both ends of the step: start pose (a0*) ...
+    a00, a01 = _mb(lw, prm, sc)
     # applied forces (impulse . v+)
     nv = prm[P_N] * z[0] + prm[P_N + 1] * z[1] + prm[P_N + 2] * z[2]
     w_grav = -hc * m * prm[P_G] * z[2]
@@ -125,6 +136,7 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
     w_adh = -hc * prm[P_ADHC] * area_prev * nv
     # end pose: R+ into lw[0:9]
     quat_to_rot(qs, QS_Q, lw, 0)
+    a10, a11 = _mb(lw, prm, sc)  # ... and end pose (a1*)
     if prm[P_TORQUE_END] > 0.5:
         for i in range(3):
             lw[9 + i] = lw[3 * i] * prm[P_EB] + lw[3 * i + 1] * prm[P_EB + 1] + lw[3 * i + 2] * prm[P_EB + 2]
@@ -180,6 +192,27 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
     if not math.isfinite(bal):
         ls[L_GAIN] = np.inf
     ls[L_KE] = ke1
+    # magnetic energy U = -m . B: its change over the step split symmetrically into the
+    # field's own variation (the energy the field supplies) and the rotation's (the energy
+    # the magnet exchanges with the body, which the torque's work h T . w+ approximates)
+    ls[L_WFIELD] = -0.5 * ((a01 - a00) + (a11 - a10))
+    # the rotation's exact exchange, -dU_rot; w_mag minus it is the torque's discretisation
+    ls[L_WMAGX] = 0.5 * ((a10 - a00) + (a11 - a01))
+    # the energy (kinetic, magnetic, potential) gained beyond the field's work and the
+    # work of every non-conservative force: bal - diss + (w_mag + dU_rot)
+    ls[L_EXCESS] = bal - diss + (w_mag - ls[L_WMAGX])
+
+
+@jit
+def _mb(R, prm, sc):  # type: ignore[no-untyped-def]
+    """``(R e_b) . B(t)`` and ``(R e_b) . B(t + h)`` for ``R`` row-major (9), the fields at ``sc[S_B0:]``, ``sc[S_B1:]``."""
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(3):
+        mi = R[3 * i] * prm[P_EB] + R[3 * i + 1] * prm[P_EB + 1] + R[3 * i + 2] * prm[P_EB + 2]
+        d0 += mi * sc[S_B0 + i]
+        d1 += mi * sc[S_B1 + i]
+    return d0, d1
 
 
 @jit
@@ -192,6 +225,16 @@ def ledger_add(led, ls):  # type: ignore[no-untyped-def]
         led[L_GAIN] = np.inf
     led[L_KE] = ls[L_KE]
     led[L_POTMAX] = max(led[L_POTMAX], led[L_WGRAV] + led[L_WELECT])
+    led[L_WFIELD] += ls[L_WFIELD]
+    led[L_EXCESS] += ls[L_EXCESS]
+    led[L_XGAIN] = max(led[L_XGAIN], led[L_EXCESS])
+    if not math.isfinite(ls[L_EXCESS]):
+        led[L_XGAIN] = np.inf
+    led[L_WMAGX] += ls[L_WMAGX]
+    led[L_MAGMAX] = max(led[L_MAGMAX], led[L_WMAGX])
+    du = led[L_WFIELD] - led[L_WMAGX]  # U(t) - U(0)
+    led[L_UHI] = max(led[L_UHI], du)
+    led[L_ULO] = min(led[L_ULO], du)
 
 
 __all__ = ["N_LW", "kinetic_energy", "ledger_add", "ledger_step"]

@@ -293,3 +293,21 @@ def get_preset(preset: str | Params) -> Params:
     if preset not in PRESETS:
         raise ValueError(f"preset={preset!r} is unknown (allowed: {', '.join(sorted(PRESETS))})")
     return PRESETS[preset]
+
+
+def check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``allowed``, else a ValueError naming it and the choices."""
+    if value not in allowed:
+        raise ValueError(f"{name}={value!r} is not allowed (allowed: {', '.join(allowed)})")
+    return str(value)
+
+
+def check_vector(name: str, vec: Any) -> tuple[float, float, float]:
+    """``vec`` as a finite 3-tuple (SI, world frame), else a ValueError naming it."""
+    try:
+        arr = np.asarray(vec, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.full(1, np.nan)
+    if arr.shape != (3,) or not np.isfinite(arr).all():
+        raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
+    return (float(arr[0]), float(arr[1]), float(arr[2]))

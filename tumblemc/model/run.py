@@ -16,6 +16,7 @@ from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Buffers, Clock, Model, Start, empty_record, make_buffers, n_records, run
 from tumblemc.model.energy import ENERGY_GAIN_TOL, energy_summary, ledger_variables
 from tumblemc.model.fields import (
+    SEG_FREQ,
     Field,
     Rotating,
     Sequence,
@@ -29,19 +30,21 @@ from tumblemc.model.fields import (
 )
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.outcome import run_status
-from tumblemc.model.params import RANGES, Params, check_number, get_preset
+from tumblemc.model.params import RANGES, Params, check_choice, check_number, check_vector, get_preset
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.model.solver_options import SolverOptions
+from tumblemc.model.step_size import CEILING_S, default_step
 from tumblemc.model.units import LENGTH_M, Units
 from tumblemc.schema import RUN_STATUS_MEANINGS, annotate
 from tumblemc.version import __version__
 
-#: default time step, s: the largest dt of the convergence study (docs/validation) whose
-#: verdicts match the finest dt (1.25e-5 s) in every case and whose progress ratios are
-#: within 2% of it in every climbing case, with the torque at the start of the step
-#: (aluminum 20 deg binds: 0.895 at 1e-4 against 0.876).
-DEFAULT_DT = 5e-5
+#: the ceiling of the default time step, s: the largest dt of the convergence study
+#: (docs/validation) whose verdicts match the finest dt (1.25e-5 s) in every case and whose
+#: progress ratios are within 2% of it in every climbing case, with the torque at the start
+#: of the step (aluminum 20 deg binds: 0.895 at 1e-4 against 0.876). A run's default is this
+#: or a whole divisor of it, from what the run must resolve (model/step_size.py).
+DEFAULT_DT = CEILING_S
 
 
 TORQUE_OPTIONS: tuple[str, ...] = ("start", "end")
@@ -82,6 +85,7 @@ class RunInputs:
     omega0: tuple[float, float, float]
     field: Field | None
     program: np.ndarray | None  # compile_program(field), SI; None: the paper's field
+    dt_rule: str  # what set dt: "given" (the caller's) or the default's rule (model/step_size.py)
 
 
 @dataclass(frozen=True)
@@ -104,22 +108,6 @@ class RunSpec(RunInputs):
         The batch path builds it once per shape, not per run.
         """
         return self.shape.geometry()
-
-
-def _check_choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
-    if value not in allowed:
-        raise ValueError(f"{name}={value!r} is not allowed (allowed: {', '.join(allowed)})")
-    return str(value)
-
-
-def _check_vector(name: str, vec: Any) -> tuple[float, float, float]:
-    try:
-        arr = np.asarray(vec, dtype=float)
-    except (TypeError, ValueError):
-        arr = np.full(1, np.nan)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}={vec!r} is not allowed (allowed: a finite 3-vector, world frame, SI)")
-    return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
 def run_inputs(  # noqa: C901
@@ -201,9 +189,16 @@ def run_inputs(  # noqa: C901
             raise ValueError(f"freq_hz={freq_hz!r} is out of range (allowed: > 0 for a duration in field periods)")
         duration_s = periods / freq_hz
     duration_s = RANGES["duration_s"].check("duration_s", DEFAULT_DURATION_S if duration_s is None else duration_s)
-    dt = DEFAULT_DT if dt is None else RANGES["dt"].check("dt", dt)
-    torque = _check_choice("torque", torque, TORQUE_OPTIONS)
-    rotation = _check_choice("rotation", rotation, ROTATION_OPTIONS)
+    omega0 = check_vector("omega0", omega0)
+    dt_rule = "given"
+    if dt is None:  # the default: what the run must resolve (model/step_size.py)
+        freqs = [freq_hz] if program is None else np.abs(program[:, SEG_FREQ]).tolist()
+        choice = default_step(shp.inertia(params.mass), params.V_m * params.magnetization, field_mT, freqs, omega0)
+        dt, dt_rule = choice.dt, choice.rule
+    else:
+        dt = RANGES["dt"].check("dt", dt)
+    torque = check_choice("torque", torque, TORQUE_OPTIONS)
+    rotation = check_choice("rotation", rotation, ROTATION_OPTIONS)
     if isinstance(record_every, bool) or not float(check_number("record_every", record_every, "", 1, 1e9)).is_integer():
         raise ValueError(f"record_every={record_every!r} is not allowed (allowed: an integer >= 1)")
     record_every = int(record_every)
@@ -233,10 +228,11 @@ def run_inputs(  # noqa: C901
         record_every=record_every,
         solver=solver or SolverOptions(),
         lift_m=lift_m,
-        v0=_check_vector("v0", v0),
-        omega0=_check_vector("omega0", omega0),
+        v0=check_vector("v0", v0),
+        omega0=omega0,
         field=field,
         program=program,
+        dt_rule=dt_rule,
     )
 
 
@@ -383,6 +379,7 @@ def to_dataset(spec: RunSpec, rec: np.ndarray, status: int, failed: int) -> xr.D
             "field_program": "paper" if spec.field is None else describe(spec.field),
             "duration_s": spec.duration_s,
             "dt": spec.dt,
+            "dt_rule": spec.dt_rule,
             "torque": spec.torque,
             "rotation": spec.rotation,
             "record_every": spec.record_every,
@@ -445,7 +442,10 @@ def simulate(
     periods : float, optional
         Simulated time in field periods instead of ``duration_s`` (``periods / freq_hz``).
     dt : float, optional
-        Time step, s; ``None`` takes :data:`DEFAULT_DT` (set by the convergence study).
+        Time step, s; ``None`` takes the default of :mod:`tumblemc.model.step_size`:
+        :data:`DEFAULT_DT` (set by the convergence study) or a whole divisor of it that
+        resolves the field's period, the magnet's natural frequency and the initial spin
+        (the run's ``dt_rule`` attribute says which).
     rotation : {"momentum", "paper"}
         The rotational row of the discrete model: ``"momentum"`` (default), which keeps a
         free body's angular momentum and never makes energy (MODEL.md, "The discrete

@@ -24,7 +24,7 @@ from tumblemc.model.params import PRESETS
 from tumblemc.model.run import DEFAULT_DT
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.reports.convergence import CONVERGENCE_CASES, convergence, default_dt, timed_run
-from tumblemc.testing import SNAP_HOP
+from tumblemc.testing import SNAP_HOP, SNAP_HOP_DT
 from tumblemc.viz.style import PENETRATION_FLOOR_M, format_penetration
 from tumblemc.viz.validation import (
     plot_adhesion_series,
@@ -77,6 +77,8 @@ def _robust(rep: Report, name: str, s: dict[str, Any], wall: float) -> None:
             "fallbacks": s["fallbacks"],
             "mean_newton_iterations": round(s["mean_newton_iterations"], 3),
             "max_penetration_m": f"{s['max_penetration']:.2e}" if s["max_penetration"] >= PENETRATION_FLOOR_M else "< 1e-12",
+            "energy_gain_ratio": f"{s['energy_gain_ratio']:.2g}",
+            "status": s["status"],
             "wall_s": round(wall, 2),
         }
     )
@@ -348,7 +350,7 @@ def release_claims(rep: Report) -> None:
             "pass" if s["climbed"] == want else "FAIL",
         )
     for release, length in (("force", 1e-5), ("peel", 1e-6), ("peel", 1e-5), ("peel", 1e-4)):
-        ds, s, _ = timed_run(periods=2.0, adhesion_release=release, peel_length=length, **SNAP_HOP)
+        ds, s, _ = timed_run(periods=2.0, dt=SNAP_HOP_DT, adhesion_release=release, peel_length=length, **SNAP_HOP)
         rep.add(
             "P2",
             f"snap hop (flat aluminum cuboid, ten times the adhesion), adhesion_release={release}"

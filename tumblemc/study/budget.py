@@ -16,8 +16,8 @@ from tumblemc.kernels.layout import N_REC
 from tumblemc.kernels.stepper import n_records
 from tumblemc.model.params import RANGES
 from tumblemc.model.rows import record_stride
-from tumblemc.model.run import DEFAULT_DT
 from tumblemc.study.checks import config_error
+from tumblemc.study.stepcfg import study_dt
 
 #: defaults of the ``[execution]`` bounds: about 100x the default study's 20,800 runs (its
 #: design table then takes a few hundred MB), 2,500x the steps of its runs (2 s at 5e-5 s:
@@ -48,7 +48,7 @@ def check_budget(cfg: Any) -> None:
             f"gives {n:,} runs ({n // cfg.samples:,} cells x {cfg.samples:,} samples)",
             f"at most {ex.max_runs:,} runs in all; fewer samples or cells, or raise [execution] max_runs",
         )
-    dt = float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
+    dt = study_dt(cfg)
     key = "dt" if cfg.dt is not None else "periods"
     for fine in (False, True):
         h = dt / cfg.check.dt_factor if fine else dt

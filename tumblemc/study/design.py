@@ -39,13 +39,13 @@ from scipy.stats import qmc
 
 from tumblemc.model.params import RANGES
 from tumblemc.model.rows import RunRow, TimeGrid
-from tumblemc.model.run import DEFAULT_DT
 from tumblemc.schema import COORD_ATTRS, sampled_name
 from tumblemc.study.checks import is_number
 from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells
 from tumblemc.study.distributions import POSTERIOR_SLOT, U_EPS, UNCERTAIN_PARAMS, ParamDistribution, mc_slot, nominal_value
 from tumblemc.study.fieldcfg import AXIS_ERRORS, program
 from tumblemc.study.identity import config_hash, config_to_json
+from tumblemc.study.stepcfg import study_dt
 
 
 def _canonical_cell(cell: Mapping[str, Any]) -> str:
@@ -276,15 +276,10 @@ def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict
         "shape": str(_scalar(row, "shape")),
         **b,
         "periods": config.periods,
-        "dt": config.dt,
+        "dt": study_dt(config),
         "torque": config.torque,
         "rotation": config.rotation,
     }
-
-
-def study_dt(cfg: StudyConfig) -> float:
-    """The study's time step, s (the simulator default when the config leaves it out)."""
-    return float(cfg.dt if cfg.dt is not None else DEFAULT_DT)
 
 
 def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:

@@ -1,0 +1,241 @@
+"""The default step size against finer steps (issue 45): ensembles, ladders and twins.
+
+Three cells beyond the paper's operating points:
+
+1. paper cuboid, flat, ``Rotating(20, 200)``, 0.5 s;
+2. aluminum cuboid, flat, ``Rotating(100, 50)``, offset 45 deg about z, 0.4 s;
+3. aluminum cuboid, flat, ``Rotating(100, 100)``, offset 30 deg about z, 0.5 s.
+
+``ensemble``: 100 robots per cell with the default uncertainties (mu truncnormal 15%,
+adhesion_C lognormal CV 30%, offset_deg normal sd 5 deg about the cell's nominal,
+magnetization normal 10%), each at the default step, at 4x finer and at 5e-5 s: the mean
+progress ratio and P(success) (ratio >= 0.5) with Wilson 95% intervals.
+
+``ladder``: the nominal robot of each cell at h, h/4, h/16, h/64 (h the default), and two
+twins at h with the magnetisation x (1 +- 1e-6): a run is *converged* when the ladder's
+spread is within 0.05, *sensitive* when the twins move it as much as the ladder does.
+
+    python experiments/step_size.py ensemble [--robots 100] [--workers 2]
+    python experiments/step_size.py ladder
+    python experiments/step_size.py stepout     # paper cuboid, flat, 20 mT: default, /4, /16
+    python experiments/step_size.py spin        # free-spin energy drift per integrator option
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+from scipy import stats
+
+CELLS = {
+    "paper_200Hz": dict(shape="cuboid", preset="paper", mT=20.0, hz=200.0, offset=None, duration_s=0.5),
+    "al_100mT_50Hz_off45z": dict(shape="cuboid", preset="aluminum", mT=100.0, hz=50.0, offset=45.0, duration_s=0.4),
+    "al_100mT_100Hz_off30z": dict(shape="cuboid", preset="aluminum", mT=100.0, hz=100.0, offset=30.0, duration_s=0.5),
+}
+
+
+def robots(cell: str, n: int, seed: int = 45) -> list[dict[str, float]]:
+    """The default uncertainties (study/distributions.py: DEFAULT_UNCERTAIN) about the cell's nominal."""
+    from tumblemc.model.params import get_preset
+
+    c = CELLS[cell]
+    p = get_preset(c["preset"])
+    rng = np.random.default_rng([seed, list(CELLS).index(cell)])
+    off0 = p.offset_deg if c["offset"] is None else c["offset"]
+    cv = 0.3
+    s2 = math.log(1 + cv**2)
+    out = []
+    for _ in range(n):
+        mu = stats.truncnorm.rvs(-1 / 0.15, np.inf, loc=p.mu, scale=0.15 * p.mu, random_state=rng)
+        out.append(
+            dict(
+                mu=float(mu),
+                adhesion_C=float(p.adhesion_C * math.exp(rng.normal(-s2 / 2, math.sqrt(s2)))),
+                offset_deg=float(rng.normal(off0, 5.0)),
+                magnetization=float(rng.normal(p.magnetization, 0.1 * p.magnetization)),
+            )
+        )
+    return out
+
+
+def one(cell: str, over: dict[str, float], dt: float | None) -> tuple[float, int, float, str]:
+    """(progress ratio, status, dt used, dt rule) of one run; dt None: the default."""
+    import tumblemc as tm
+    from tumblemc.model.fields import Rotating
+    from tumblemc.model.step_size import CEILING_S
+
+    c = CELLS[cell]
+    kw = dict(over)
+    if c["offset"] is not None:
+        kw["offset_axis"] = (0.0, 0.0, 1.0)
+    step = dt
+    if step is None:
+        from tumblemc.model.run import run_inputs
+
+        step = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
+    every = max(1, round(CEILING_S / 10 / step))  # a record every 5 us whatever the step
+    ds = tm.simulate(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], dt=dt, record_every=every, **kw)
+    s = tm.summarize(ds)
+    return float(s["progress_ratio"]), int(s["status"]), float(ds.attrs["dt"]), str(ds.attrs["dt_rule"])
+
+
+def wilson(k: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    if n == 0:
+        return (math.nan, math.nan)
+    p = k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return (c - h, c + h)
+
+
+def ensemble(args: argparse.Namespace) -> None:
+    from tumblemc.model.fields import Rotating
+    from tumblemc.model.run import run_inputs
+
+    print("| cell | step | dt (s) | valid | mean ratio | P(success) [95%] | paired with default: n, mean difference +- SE | wall (s) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for cell in args.cells.split(","):
+        c = CELLS[cell]
+        rs = robots(cell, args.robots)
+        h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"]).dt
+        base = None
+        for label, dt in (("default", None), ("default/4", h / 4), ("5e-5", 5e-5)):
+            t0 = time.perf_counter()
+            with ProcessPoolExecutor(args.workers) as ex:
+                res = list(ex.map(one, [cell] * len(rs), rs, [dt] * len(rs)))
+            ratio = np.array([r[0] for r in res])
+            ok = np.array([r[1] == 0 for r in res])
+            k = int(np.sum(ratio[ok] >= 0.5))
+            n = int(ok.sum())
+            lo, hi = wilson(k, n)
+            dts = sorted({f"{r[2]:.4g}" for r in res})
+            mean = f"{ratio[ok].mean():.3f}" if n else "-"
+            pint = f"{k / n:.2f} [{lo:.2f}, {hi:.2f}]" if n else "- (no valid run)"
+            if base is None:
+                base = (ratio, ok)
+                paired = "-"
+            else:
+                both = ok & base[1]
+                d = ratio[both] - base[0][both]
+                paired = f"{both.sum()}, {d.mean():+.3f} +- {d.std(ddof=1) / math.sqrt(both.sum()):.3f}" if both.sum() > 1 else "-"
+            if args.save:
+                np.savez(f"{args.save}_{cell}_{label.replace('/', '_')}.npz", ratio=ratio, ok=ok)
+            wall = time.perf_counter() - t0
+            print(f"| {cell} | {label} | {','.join(dts)} | {n}/{len(rs)} | {mean} | {pint} | {paired} | {wall:.0f} |", flush=True)
+
+
+def ladder(args: argparse.Namespace) -> None:
+    from tumblemc.model.fields import Rotating
+    from tumblemc.model.params import get_preset
+    from tumblemc.model.run import run_inputs
+
+    print("| cell | h (s) | h | h/4 | h/16 | h/64 | twins at h (M x 1 -+ 1e-6) | verdict |")
+    print("|---|---|---|---|---|---|---|---|")
+    for cell in args.cells.split(","):
+        c = CELLS[cell]
+        p = get_preset(c["preset"])
+        nom = {} if c["offset"] is None else {"offset_deg": c["offset"]}
+        kw = dict(nom, **({"offset_axis": (0.0, 0.0, 1.0)} if c["offset"] is not None else {}))
+        h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
+        divs = [int(x) for x in args.divs.split(",")]
+        with ProcessPoolExecutor(args.workers) as ex:
+            lad = list(ex.map(one, [cell] * len(divs), [nom] * len(divs), [h / k for k in divs]))
+            tw = list(ex.map(one, [cell] * 2, [dict(nom, magnetization=p.magnetization * (1 + s)) for s in (-1e-6, 1e-6)], [h, h]))
+        r = [x[0] for x in lad]
+        t = [x[0] for x in tw]
+        spread = max(r) - min(r)
+        twin = max(abs(t[0] - r[0]), abs(t[1] - r[0]))
+        verdict = "converged" if spread <= 0.05 else ("sensitive" if twin >= 0.5 * spread else "not converged")
+        cells = " | ".join(f"{x:.3f}" for x in r)
+        print(f"| {cell} | {h:.4g} | {cells} | {t[0]:.3f}, {t[1]:.3f} | {verdict} (spread {spread:.3f}, twins {twin:.3f}) |", flush=True)
+
+
+def _follows(f: float, div: int) -> bool:
+    import tumblemc as tm
+    from tumblemc.lab.protocols import STEP_OUT_SHARE, following_share
+    from tumblemc.model.run import run_inputs
+
+    h = run_inputs("cuboid", "paper", 0.0, 20.0, f, periods=8.0).dt
+    ds = tm.simulate("cuboid", "paper", 0.0, 20.0, f, periods=8.0, dt=h / div)
+    return bool(following_share(ds, 1.0 / f) >= STEP_OUT_SHARE)
+
+
+def _bisect(div: int, lo: float = 150.0, hi: float = 400.0, rel_tol: float = 0.002) -> float:
+    if not (_follows(lo, div) and not _follows(hi, div)):
+        return math.nan
+    while hi - lo > rel_tol * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _follows(mid, div) else (lo, mid)
+    return hi
+
+
+def stepout(args: argparse.Namespace) -> None:
+    """The step-out frequency of the paper cuboid at 20 mT at the default step and finer.
+
+    lab.step_out's criterion (the magnet makes half the field's turns), at the default step
+    of each frequency divided by each of ``--divs``.
+    """
+    divs = [int(x) for x in args.divs.split(",")]
+    with ProcessPoolExecutor(args.workers) as ex:
+        res = list(ex.map(_bisect, divs))
+    print("| step | step-out frequency (Hz) |")
+    print("|---|---|")
+    for k, f in zip(divs, res, strict=True):
+        print(f"| default/{k} | {f:.1f} |")
+
+
+def spin(args: argparse.Namespace) -> None:
+    """A free spin off a principal axis in a static 20 mT field (paper cuboid, 50 ms).
+
+    The mechanical energy's change (kinetic + magnetic + gravity) over |m||B|, per integrator option.
+    """
+    import tumblemc as tm
+    from tumblemc.model.fields import Static
+
+    print("| rotation | torque | dt | energy change at the end / most above the start (|m||B|) | status | dt rule |")
+    print("|---|---|---|---|---|---|")
+    for rot in ("momentum", "paper"):
+        for torque in ("start", "end"):
+            for dt in (None, 5e-5 / 4, 5e-5 / 16):
+                ds = tm.simulate(
+                    "cuboid",
+                    "paper",
+                    field=Static(20, (0, 0, -1)),
+                    lift_m=0.05,
+                    omega0=(2000.0, 1000.0, 500.0),
+                    duration_s=0.05,
+                    dt=dt,
+                    rotation=rot,
+                    torque=torque,
+                )
+                e = (ds.kinetic_energy + ds.magnetic_energy + ds.potential_energy).values
+                mb = float(np.abs(ds.magnetic_energy).max())
+                print(
+                    f"| {rot} | {torque} | {ds.attrs['dt']:.3g} | {(e[-1] - e[0]) / mb:+.3f} / {(e - e[0]).max() / mb:.3f} "
+                    f"| {ds.attrs['status']} | {ds.attrs['dt_rule']} |",
+                    flush=True,
+                )
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("stage", choices=["ensemble", "ladder", "stepout", "spin"])
+    ap.add_argument("--robots", type=int, default=100)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--cells", default=",".join(CELLS))
+    ap.add_argument("--divs", default="1,4,16,64")
+    ap.add_argument("--save", default="", help="ensemble: write each ensemble's ratios to <save>_<cell>_<step>.npz")
+    args = ap.parse_args(argv)
+    if args.stage == "stepout" and args.divs == "1,4,16,64":
+        args.divs = "1,4,16"
+    {"ensemble": ensemble, "ladder": ladder, "stepout": stepout, "spin": spin}[args.stage](args)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
