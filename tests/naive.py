@@ -169,13 +169,14 @@ def naive_model(z, sc, prm, ctype, cdata, pstart, mu_s=0.0) -> dict:  # type: ig
 
     # end-of-step pose and inertia
     x_new = x0 + h * v_new
-    R = rotmat(quat_update(q0, w_new, h))
+    # the pose turned by w_theta = theta w+ + (1 - theta) w (theta 1: the paper's, 0.5: midpoint)
+    theta = 1.0 - prm[L.P_POSE_W0]
+    R = rotmat(quat_update(q0, theta * w_new + (1.0 - theta) * sc[L.S_W : L.S_W + 3], h))
     I_new = R @ Ib @ R.T
 
-    if prm[L.P_TORQUE_END] == 1.0:
-        torque = np.cross(R @ e_b, sc[L.S_BEND : L.S_BEND + 3])
-    else:
-        torque = sc[L.S_TM : L.S_TM + 3].copy()
+    # the magnetic torque: the end pose's weighted by P_TORQUE_END, the start's by the rest
+    wend = prm[L.P_TORQUE_END]
+    torque = wend * np.cross(R @ e_b, sc[L.S_BEND : L.S_BEND + 3]) + (1.0 - wend) * sc[L.S_TM : L.S_TM + 3]
 
     force_sum = np.zeros(3)
     moment_sum = np.zeros(3)

@@ -134,6 +134,11 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
     # both rotation rows (momentum form, the paper's explicit form), from a separate stream
     # so that every other draw stays what it was
     prm[L.P_ROT_PAPER] = 1.0 if np.random.default_rng([seed, 1]).random() < 0.5 else 0.0
+    # the pose update and the torque's end weight: the paper's (1) or the midpoint rule's
+    # (0.5), from another stream
+    prm[L.P_POSE_W0] = 0.5 if np.random.default_rng([seed, 2]).random() < 0.3 else 0.0
+    if prm[L.P_POSE_W0] == 0.5 and np.random.default_rng([seed, 3]).random() < 0.5:
+        prm[L.P_TORQUE_END] = 0.5
 
     sc = np.zeros(L.N_SC)
     sc[L.S_X : L.S_X + 3] = rng.normal(size=3) * 2.0
@@ -351,7 +356,7 @@ def _kink_problem(kinds, seed, torque_end, theta):  # type: ignore[no-untyped-de
     ``ln``: lam_n = 0 and a1 = (alpha, 0, 0) so n.a1 = 0 exactly (n_x = 0).
     ``ls``: l_s = 0 and a2 = (beta, 0, 0).
     ``sig``: sigma = 0, e_t = 1, lam_o = lam_r = 0, lam_t = mu lam_n, so the cone is 0.
-    ``l0``: l_1 = 0 on the +x face with an exact identity end pose (Q = 1, w+ = v+ = 0,
+    ``l0``: l_1 = 0 on the +x face with an exact identity end pose (Q = 1, w = w+ = v+ = 0,
       x = 0) and a1_x = 2.
     """
     z, sc, prm, ctype, cdata, pstart = make_problem("cuboid", seed, torque_end, theta, 0.2, 0.0)
@@ -360,6 +365,7 @@ def _kink_problem(kinds, seed, torque_end, theta):  # type: ignore[no-untyped-de
     if "l0" in kinds:
         sc[L.S_Q : L.S_Q + 4] = (1.0, 0.0, 0.0, 0.0)
         sc[L.S_X : L.S_X + 3] = 0.0
+        sc[L.S_W : L.S_W + 3] = 0.0  # the midpoint rule's pose turns by the mean of w and w+
         z[0:6] = 0.0
         z[blk["l"][0]] = 0.0
         z[blk["a1"]] = 2.0
@@ -462,7 +468,7 @@ def test_snap_guess_lays_the_nearest_face_flat(tilt: float) -> None:
     w = np.zeros(3)
     assert snap_flat(R0.ravel(), spec.prm, spec.geo, h, w0, w)
     blk, R1 = np.zeros(N_QS), np.zeros(9)
-    quat_step(rot_to_quat(R0), 0, w, 0, h, blk, 0)
+    quat_step(rot_to_quat(R0), 0, w, 0, h, blk, 0, w, 0, 1.0)
     quat_to_rot(blk, QS_Q, R1, 0)
     assert bottom_tilt(R1.reshape(3, 3)) <= tilt**3 + 1e-14
     assert not snap_flat(tilted(1.5 * SNAP_MAX_TILT).ravel(), spec.prm, spec.geo, h, w0, w)
@@ -557,9 +563,16 @@ def test_geometry_kernels_against_naive_twins(seed: int) -> None:
     qa, wa = np.zeros(k1 + 4), np.zeros(k2 + 3)
     qa[k1:], wa[k2:] = q, w
     blk0, blk = np.zeros(G.N_QS), np.full(k3 + G.N_QS, np.nan)
-    G.quat_step(q, 0, w, 0, h, blk0, 0)
-    G.quat_step(qa, k1, wa, k2, h, blk, k3)
+    G.quat_step(q, 0, w, 0, h, blk0, 0, w, 0, 1.0)
+    G.quat_step(qa, k1, wa, k2, h, blk, k3, wa, k2, 1.0)
     assert np.array_equal(blk[k3:], blk0)
+    # the midpoint rule's pose: turned by the mean of w0 and w+, d(theta)/d(w+) halved
+    w0 = rng.standard_normal(3)
+    mid, at = np.zeros(G.N_QS), np.zeros(G.N_QS)
+    G.quat_step(q, 0, w, 0, h, mid, 0, w0, 0, 0.5)
+    G.quat_step(q, 0, 0.5 * w + 0.5 * w0, 0, h, at, 0, w0, 0, 1.0)
+    assert np.allclose(mid[G.QS_Q : G.QS_Q + 4], at[G.QS_Q : G.QS_Q + 4], rtol=0, atol=1e-15)
+    assert np.allclose(mid[G.QS_JTH : G.QS_JTH + 9], 0.5 * at[G.QS_JTH : G.QS_JTH + 9], rtol=0, atol=1e-15)
     qn = blk0[G.QS_Q : G.QS_Q + 4]
     assert np.allclose(qn, naive.quat_update(q, w, h), rtol=0, atol=1e-15)
     R0, R = np.zeros(9), np.full(k1 + 9, np.nan)

@@ -31,6 +31,7 @@ from .layout import (
     P_N,
     P_O,
     P_PEEL_LEN,
+    P_POSE_W0,
     P_T,
     P_TORQ,
     P_TORQUE_END,
@@ -100,30 +101,31 @@ def prepare_step(state, t, h, prm, area_prev, touching_prev, scr):  # type: igno
             sc[S_B1 + i] = 0.0
         return push
     step_fields(prm, t, h, sc, tmp2)
-    if prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
-        if prm[P_TORQUE_END] > 0.5:
+    wend = prm[P_TORQUE_END]  # the end-of-step torque's weight (residual.py)
+    if wend > 0.0:  # the residual forms (R+ e_b) x B(t + h) itself
+        if prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
             program_field(prm, t + h, sc[S_BEND : S_BEND + 3])
         else:
-            quat_to_rot(state, 3, R, 0)
+            field_dir(prm, t + h, tmp2)
+            for i in range(3):
+                sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
+    if wend < 1.0:  # the torque at the start of the step: (R e_b) x B(t)
+        quat_to_rot(state, 3, R, 0)
+        if prm[P_FPROG] > 0.5:
             for i in range(3):
                 tmp[i] = R[3 * i] * prm[P_EB] + R[3 * i + 1] * prm[P_EB + 1] + R[3 * i + 2] * prm[P_EB + 2]
             program_field(prm, t, tmp2)
             cross(tmp, 0, tmp2, 0, sc, S_TM)
-    elif prm[P_TORQUE_END] > 0.5:  # the residual forms (R+ e_b) x B(t + h) itself
-        field_dir(prm, t + h, tmp2)
-        for i in range(3):
-            sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
-    else:  # torque at the start of the step: (R e_b) x B(t)
-        quat_to_rot(state, 3, R, 0)
-        for i in range(3):
-            acc = 0.0
-            for j in range(3):
-                acc += R[3 * i + j] * prm[P_EB + j]
-            tmp[i] = acc
-        field_dir(prm, t, tmp2)
-        cross(tmp, 0, tmp2, 0, sc, S_TM)
-        for i in range(3):
-            sc[S_TM + i] *= prm[P_TORQ]
+        else:
+            for i in range(3):
+                acc = 0.0
+                for j in range(3):
+                    acc += R[3 * i + j] * prm[P_EB + j]
+                tmp[i] = acc
+            field_dir(prm, t, tmp2)
+            cross(tmp, 0, tmp2, 0, sc, S_TM)
+            for i in range(3):
+                sc[S_TM + i] *= prm[P_TORQ]
     return push
 
 
@@ -202,7 +204,7 @@ def flight_clears(state, z6, hc, prm, geo, scr):  # type: ignore[no-untyped-def]
     R = scr.R
     xend = scr.tmp3
     tmp = scr.tmp
-    quat_step(state, 3, z6, 3, hc, qs, 0)
+    quat_step(state, 3, z6, 3, hc, qs, 0, state, 10, (1.0 - prm[P_POSE_W0]))
     quat_to_rot(qs, QS_Q, R, 0)
     for i in range(3):
         xend[i] = state[i] + hc * z6[i]

@@ -103,11 +103,13 @@ def quat_E(q, iq, o, io):  # type: ignore[no-untyped-def]
 
 
 @jit
-def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
+def quat_step(q, iq, w, iw, h, o, io, w0, iw0, theta):  # type: ignore[no-untyped-def]
     """End-of-step orientation and its derivative into the block o[io:io+N_QS].
 
-    ``Q+ = normalise(Q + h/2 E(Q) w+)`` (MODEL.md, discrete model) at ``io + QS_Q``, with
-    ``Q = q[iq:iq+4]`` and ``w+ = w[iw:iw+3]``; ``d(theta)/d(w+)`` (3x3) at ``io + QS_JTH``:
+    ``Q+ = normalise(Q + h/2 E(Q) w_theta)`` (MODEL.md, discrete model) at ``io + QS_Q``, with
+    ``Q = q[iq:iq+4]``, ``w+ = w[iw:iw+3]`` and ``w_theta = theta w+ + (1 - theta) w0[iw0:iw0+3]``
+    (``theta = 1``: the paper's ``w+``, computed exactly as before; 0.5: the midpoint rule's
+    mean of the start and end velocities); ``d(theta)/d(w+)`` (3x3) at ``io + QS_JTH``:
     a perturbation ``dw`` of ``w+`` rotates the end pose by the small world-frame angle
     ``Jth @ dw``, i.e. ``dR = [Jth dw]x R``. E(Q) and E(Q+) are left at ``QS_E1``,
     ``QS_E2``. Returns |Q~| before normalisation.
@@ -117,17 +119,25 @@ def quat_step(q, iq, w, iw, h, o, io):  # type: ignore[no-untyped-def]
     qn = io + QS_Q
     quat_E(q, iq, o, e1)
     ss = 0.0
-    for k in range(4):
-        acc = q[iq + k]
-        for j in range(3):
-            acc += 0.5 * h * o[e1 + 3 * k + j] * w[iw + j]
-        o[qn + k] = acc
-        ss += acc * acc
+    if theta == 1.0:
+        for k in range(4):
+            acc = q[iq + k]
+            for j in range(3):
+                acc += 0.5 * h * o[e1 + 3 * k + j] * w[iw + j]
+            o[qn + k] = acc
+            ss += acc * acc
+    else:
+        for k in range(4):
+            acc = q[iq + k]
+            for j in range(3):
+                acc += 0.5 * h * o[e1 + 3 * k + j] * (theta * w[iw + j] + (1.0 - theta) * w0[iw0 + j])
+            o[qn + k] = acc
+            ss += acc * acc
     nrm = math.sqrt(ss)
     for k in range(4):
         o[qn + k] /= nrm
     quat_E(o, qn, o, e2)
-    c = h / nrm
+    c = h / nrm if theta == 1.0 else theta * h / nrm
     jt = io + QS_JTH
     for i in range(3):
         for j in range(3):

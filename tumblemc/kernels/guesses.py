@@ -328,7 +328,7 @@ def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type
     for i in range(z.shape[0]):
         z[i] = zsave[i]
     if guess == G_POINT_IMPACT or guess == G_TWIST_IMPACT:
-        quat_step(state, 3, state, 10, hc, qs, 0)
+        quat_step(state, 3, state, 10, hc, qs, 0, state, 10, 1.0)
         quat_to_rot(qs, QS_Q, R, 0)
         for i in range(3):
             tmp3[i] = state[i] + hc * state[7 + i]
@@ -371,7 +371,7 @@ def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type
     if guess == G_SNAP_EDGE:
         # the nearly level edge laid level: pre-impact v, snapped w, the ECP in the middle
         # of the edge at the snapped pose
-        quat_step(state, 3, state, 10, hc, qs, 0)
+        quat_step(state, 3, state, 10, hc, qs, 0, state, 10, 1.0)
         quat_to_rot(qs, QS_Q, R, 0)
         for i in range(3):
             tmp3[i] = state[i] + hc * state[7 + i]
@@ -380,7 +380,7 @@ def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type
         for i in range(3):
             z[i] = state[7 + i]
             z[3 + i] = tmp[i]
-        quat_step(state, 3, z, 3, hc, qs, 0)
+        quat_step(state, 3, z, 3, hc, qs, 0, state, 10, 1.0)  # a guess: the paper's pose update
         quat_to_rot(qs, QS_Q, R, 0)
         off = 6
         for kp in range(K):
@@ -392,7 +392,7 @@ def build_guess(guess, z, zsave, state, hc, model, scr, touching, edir):  # type
         guess -= G_FACE_REST - G_FACE  # the same guess, from rest
         for i in range(6):
             z[i] = 0.0
-    quat_step(state, 3, state, 10, hc, qs, 0)
+    quat_step(state, 3, state, 10, hc, qs, 0, state, 10, 1.0)
     quat_to_rot(qs, QS_Q, R, 0)
     if guess == G_SNAP_FLAT:
         # the nearly flat face laid flat: pre-impact v, snapped w; the ECP at the lowest

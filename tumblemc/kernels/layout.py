@@ -26,7 +26,7 @@ P_ADHC = 8  # adhesion coefficient C (force / length^2)
 P_TORQ = 9  # V_m |E| |B|: magnetic torque magnitude
 P_FREQ = 10  # field frequency (cycles per time unit)
 P_ELECT_FLIGHT = 11  # 1: electrostatic force also in flight (authors' code); 0: in contact only
-P_TORQUE_END = 12  # 1: magnetic torque at the end of the step (paper); 0: at the start
+P_TORQUE_END = 12  # weight of the end-of-step magnetic torque: 1 at the end (paper), 0 at the start, 0.5 their mean
 P_N = 13  # plane normal n (3)
 P_T = 16  # contact tangent t (3)
 P_O = 19  # contact tangent o (3)
@@ -40,7 +40,8 @@ P_LINEW = 40  # line_contact_width (scaled length)
 P_PEEL = 41  # 1: a released face peels (adhesion_release="peel", MODEL.md departures); 0: the paper's force law
 P_PEEL_LEN = 42  # peel_length (scaled): the work of adhesion per area is C x peel_length
 P_FPROG = 43  # number of field-program segments after N_PRM (0: the paper's field, P_TORQ x R_x(2 pi P_FREQ t) u)
-N_PRM = 44
+P_POSE_W0 = 44  # the pose update's weight of the start w: Q+ turned by h ((1 - it) w+ + it w); 0 the paper's, 0.5 the midpoint rule's
+N_PRM = 45
 
 # ---- field program: prm[N_PRM + k * FSEG + FS_*], one row per segment (model/fields.py) ----
 FS_T0 = 0  # segment start time

@@ -66,6 +66,7 @@ from .layout import (
     P_MASS,
     P_N,
     P_O,
+    P_POSE_W0,
     P_T,
     P_TORQUE_END,
     S_B0,
@@ -74,7 +75,7 @@ from .layout import (
     S_TM,
 )
 
-N_LW = 12  # ledger scratch: R (9) and a 3-vector
+N_LW = 15  # ledger scratch: R (9), a 3-vector and the rotation's velocity w_theta (3)
 
 
 @jit
@@ -123,7 +124,18 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
         dv2 += d * d
         v02 += state[7 + i] * state[7 + i]
         lw[9 + i] = z[3 + i] - state[10 + i]
-    diss = 0.5 * m * dv2 + _ke_rot(lw, prm, lw[9:12])
+    # the rotation's velocity as the pose update used it, w_theta = theta w+ + (1 - theta) w
+    # (geometry.quat_step), at lw[12:15]; its dissipation (theta - 1/2) dw . I dw (backward
+    # Euler's 1/2 dw . I dw at theta = 1, none at the midpoint)
+    theta = 1.0 - prm[P_POSE_W0]
+    if theta == 1.0:
+        diss = 0.5 * m * dv2 + _ke_rot(lw, prm, lw[9:12])
+        for i in range(3):
+            lw[12 + i] = z[3 + i]
+    else:
+        diss = 0.5 * m * dv2 + (2.0 * theta - 1.0) * _ke_rot(lw, prm, lw[9:12])
+        for i in range(3):
+            lw[12 + i] = theta * z[3 + i] + (1.0 - theta) * state[10 + i]
     ke0 = 0.5 * m * v02 + _ke_rot(lw, prm, state[10:13])
     # the magnet's direction times the field at both ends of the step: start pose (a0*) ...
     a00, a01 = _mb(lw, prm, sc)
@@ -137,17 +149,22 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
     # end pose: R+ into lw[0:9]
     quat_to_rot(qs, QS_Q, lw, 0)
     a10, a11 = _mb(lw, prm, sc)  # ... and end pose (a1*)
-    if prm[P_TORQUE_END] > 0.5:
+    wend = prm[P_TORQUE_END]  # the torque as the step used it (residual.py)
+    if wend > 0.0:
         for i in range(3):
             lw[9 + i] = lw[3 * i] * prm[P_EB] + lw[3 * i + 1] * prm[P_EB + 1] + lw[3 * i + 2] * prm[P_EB + 2]
         t0 = lw[10] * sc[S_BEND + 2] - lw[11] * sc[S_BEND + 1]
         t1 = lw[11] * sc[S_BEND] - lw[9] * sc[S_BEND + 2]
         t2 = lw[9] * sc[S_BEND + 1] - lw[10] * sc[S_BEND]
+        if wend < 1.0:
+            t0 = wend * t0 + (1.0 - wend) * sc[S_TM]
+            t1 = wend * t1 + (1.0 - wend) * sc[S_TM + 1]
+            t2 = wend * t2 + (1.0 - wend) * sc[S_TM + 2]
     else:
         t0 = sc[S_TM]
         t1 = sc[S_TM + 1]
         t2 = sc[S_TM + 2]
-    w_mag = hc * (t0 * z[3] + t1 * z[4] + t2 * z[5])
+    w_mag = hc * (t0 * lw[12] + t1 * lw[13] + t2 * lw[14])
     v12 = z[0] * z[0] + z[1] * z[1] + z[2] * z[2]
     ke1 = 0.5 * m * v12 + _ke_rot(lw, prm, z[3:6])
     # contact impulses at a1, lever r = a1 - x+ (x+ = x + hc v+)
@@ -163,8 +180,8 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
             lr = z[off + B_LR]
             for i in range(3):
                 lw[9 + i] = z[off + B_A1 + i] - state[i] - hc * z[i]
-            # v_c = v+ + w+ x r, written into lw[0:3] (R+ is no longer needed)
-            cross(z, 3, lw, 9, lw, 0)
+            # v_c = v+ + w_theta x r, written into lw[0:3] (R+ is no longer needed)
+            cross(lw, 12, lw, 9, lw, 0)
             vn = 0.0
             vt = 0.0
             vo = 0.0
@@ -174,7 +191,7 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
                 vn += prm[P_N + i] * vc
                 vt += prm[P_T + i] * vc
                 vo += prm[P_O + i] * vc
-                wn += prm[P_N + i] * z[3 + i]
+                wn += prm[P_N + i] * lw[12 + i]
             w_n += hc * ln * vn
             w_f += hc * (lt * vt + lo * vo + lr * wn)
             off += B_FIXED + mk

@@ -58,6 +58,7 @@ from .layout import (
     P_MU,
     P_N,
     P_O,
+    P_POSE_W0,
     P_ROT_PAPER,
     P_T,
     P_TORQUE_END,
@@ -229,7 +230,7 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
     er = prm[P_ER]
     # offsets: v+ = z[0:3], w+ = z[3:6], w = sc[S_W:], n = prm[P_N:], t = prm[P_T:], o = prm[P_O:]
 
-    quat_step(sc, S_Q, z, 3, h, s, RS_QS)
+    quat_step(sc, S_Q, z, 3, h, s, RS_QS, sc, S_W, (1.0 - prm[P_POSE_W0]))
     quat_to_rot(s, RS_QN, s, RS_R)
     for i in range(3):
         s[RS_XP + i] = sc[S_X + i] + h * z[i]
@@ -294,7 +295,10 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
         for i in range(3):
             F[i] = m * (z[i] - sc[S_V + i]) / h - sc[S_FEXT + i]
             F[3 + i] = (s[RS_IPZ + i] - s[RS_L0 + i]) / h
-    torque_end = prm[P_TORQUE_END] > 0.5
+    # the magnetic torque: at the end pose (weight wend = 1, the paper's), at the start (0),
+    # or their mean (0.5, the midpoint rule's trapezoid); 1 and 0 computed exactly as before
+    wend = prm[P_TORQUE_END]
+    torque_end = wend > 0.0
     if torque_end:
         for i in range(3):
             acc = 0.0
@@ -302,8 +306,12 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
                 acc += s[RS_R + 3 * i + j] * prm[P_EB + j]
             s[RS_MW + i] = acc
         cross(s, RS_MW, sc, S_BEND, s, RS_V2)
-        for i in range(3):
-            F[3 + i] -= s[RS_V2 + i]
+        if wend == 1.0:
+            for i in range(3):
+                F[3 + i] -= s[RS_V2 + i]
+        else:
+            for i in range(3):
+                F[3 + i] -= wend * s[RS_V2 + i] + (1.0 - wend) * sc[S_TM + i]
     else:
         for i in range(3):
             F[3 + i] -= sc[S_TM + i]
@@ -339,7 +347,7 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
             skew(s, RS_MW, s, RS_M2)
             _mm(s, RS_M1, RS_M2, RS_HL)
             for i in range(9):
-                s[RS_M3 + i] -= s[RS_HL + i]
+                s[RS_M3 + i] -= wend * s[RS_HL + i]
         _mm(s, RS_M3, RS_JTH, RS_M1)
         for i in range(3):
             for j in range(3):

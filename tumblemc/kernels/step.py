@@ -29,6 +29,7 @@ from .layout import (
     O_RESCUE,
     O_WARM,
     P_PEEL,
+    P_POSE_W0,
     ST_NAN,
     ST_OK,
     ST_STOPPED,
@@ -180,7 +181,7 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
                     status = ST_STOPPED
                     break
             if st == ST_OK and not free and nwork_max > 0.0 and depth < refine_cap:
-                quat_step(state, 3, z, 3, hc, scr.qs, 0)
+                quat_step(state, 3, z, 3, hc, scr.qs, 0, state, 10, (1.0 - prm[P_POSE_W0]))
                 ledger_step(
                     state, z, hc, scr.qs, False, sv[SV_ANY_TOUCH] > 0.5, sv[SV_AREA] + sv[SV_PEEL], prm, model.geo.pstart, scr.sc, lp.lw, ls
                 )
@@ -216,7 +217,7 @@ def one_step(step, h, t0, model, opts_set, buf, scr, lp, live, live_start, faile
                 refine_cap = snap_depth
                 continue
             if not have_ls:
-                quat_step(state, 3, z, 3, hc, scr.qs, 0)
+                quat_step(state, 3, z, 3, hc, scr.qs, 0, state, 10, (1.0 - prm[P_POSE_W0]))
                 ledger_step(
                     state,
                     z,
@@ -281,7 +282,7 @@ def commit(step, h, t0, hc, remaining, free, have_ls, model, scr, lp, live):  # 
         if not z[i] == z[i]:
             return False
     qs = scr.qs
-    quat_step(state, 3, z, 3, hc, qs, 0)
+    quat_step(state, 3, z, 3, hc, qs, 0, state, 10, (1.0 - prm[P_POSE_W0]))
     if not have_ls:
         ledger_step(state, z, hc, qs, free, sv[SV_ANY_TOUCH] > 0.5, sv[SV_AREA] + sv[SV_PEEL], prm, geo.pstart, scr.sc, lp.lw, lp.ls)
     ledger_add(live.led, lp.ls)

@@ -151,7 +151,7 @@ def predict_flight(state, hc, model, opts, buf, scr, sv):  # type: ignore[no-unt
     z6 = buf.z6
     st6 = ST_NAN
     res6 = 0.0
-    quat_step(state, 3, state, 10, hc, scr.qs, 0)
+    quat_step(state, 3, state, 10, hc, scr.qs, 0, state, 10, 1.0)
     quat_to_rot(scr.qs, QS_Q, R, 0)
     for i in range(3):
         tmp3[i] = state[i] + hc * (state[7 + i] + hc * sc[S_FEXT + i] / prm[P_MASS])

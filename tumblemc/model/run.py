@@ -47,11 +47,15 @@ from tumblemc.version import __version__
 DEFAULT_DT = CEILING_S
 
 
-TORQUE_OPTIONS: tuple[str, ...] = ("start", "end")
-#: the rotational row (MODEL.md, discrete model): "momentum" (the default), (I+ w+ - I w)/h,
-#: which keeps a free body's angular momentum, or "paper", the paper's I+ (w+ - w)/h + w x (I+ w)
-#: (forward Euler on Euler's equations: it makes energy in a spin off a principal axis)
-ROTATION_OPTIONS: tuple[str, ...] = ("momentum", "paper")
+#: the magnetic torque of a step: at its start (the default), at its end pose (the paper's) or
+#: their mean ("mid", the trapezoid of the midpoint integrator, rotation="midpoint")
+TORQUE_OPTIONS: tuple[str, ...] = ("start", "end", "mid")
+TORQUE_END_WEIGHT = {"start": 0.0, "end": 1.0, "mid": 0.5}
+#: the rotational row (MODEL.md): "momentum" (the default), (I+ w+ - I w)/h, which keeps a free
+#: body's angular momentum; "paper", I+ (w+ - w)/h + w x (I+ w) (forward Euler on Euler's
+#: equations: it makes energy in a spin off a principal axis); "midpoint", the momentum row
+#: with the pose turned by the mean of w and w+ (70x less damping of a free spin)
+ROTATION_OPTIONS: tuple[str, ...] = ("momentum", "paper", "midpoint")
 DEFAULT_ROTATION = "momentum"
 
 
@@ -260,7 +264,8 @@ def prepare(inputs: RunInputs) -> RunSpec:
     prm[L.P_TORQ] = params.V_m * params.magnetization * inputs.field_mT * 1e-3 / u.torque  # this order: records as before programs
     prm[L.P_FREQ] = inputs.freq_hz * u.time
     prm[L.P_ELECT_FLIGHT] = 1.0 if params.electrostatic_in_flight else 0.0
-    prm[L.P_TORQUE_END] = 1.0 if inputs.torque == "end" else 0.0
+    prm[L.P_TORQUE_END] = TORQUE_END_WEIGHT[inputs.torque]
+    prm[L.P_POSE_W0] = 0.5 if inputs.rotation == "midpoint" else 0.0
     prm[L.P_N : L.P_N + 3] = fr["n"]
     prm[L.P_T : L.P_T + 3] = fr["t"]
     prm[L.P_O : L.P_O + 3] = fr["o"]
