@@ -19,7 +19,20 @@ impulses, :func:`ledger_step` adds to the cumulative array ``led`` (columns ``L_
 - the numerical energy gain ``max(b + max(W_n, 0), 0)``: the balance plus any positive
   work of the normal impulse (a rigid contact cannot push; the position-level contact
   pushing the body out, or an unconverged impulse, does), counted per step so that
-  dissipation elsewhere cannot hide it.
+  dissipation elsewhere cannot hide it;
+- the magnetic energy ``U = -m . B`` (``m = R e_b`` in torque units) at both ends of the
+  step, its change split symmetrically into the field's own work
+  ``-1/2 (m + m+) . (B+ - B)`` (the energy the field supplies, ``L_WFIELD``) and the
+  rotation's exchange ``1/2 (m+ - m) . (B + B+)`` (what the torque's work approximates,
+  ``L_WMAGX``);
+- the energy excess ``b - 1/2 dV.M dV + (W_mag - exchange)``: the mechanical energy
+  (kinetic, magnetic, potential) gained beyond the field's work and every non-conservative
+  force's, cumulative (``L_EXCESS``) with its running maximum (``L_XGAIN``): the torque's
+  time discretisation, which the first account books as field work, shows here.
+
+With the midpoint rule (``prm[P_POSE_W0] = 1/2``: the pose turned by the mean of ``w`` and
+``w+``) the rotation's works use that velocity, ``w_theta``, and its dissipation is
+``(theta - 1/2) dw . I dw`` (none at the midpoint, backward Euler's at ``theta = 1``).
 
 Units are the kernels' (energy in ``m g x 1e-4 m``).
 """

@@ -36,9 +36,11 @@ freq_hz*             number or list, Hz, in (0, 10000]
 periods              simulated field periods, >= 2 (default 2)
 transient_periods    periods discarded before measuring (default 1); at least one period
                      must remain (``transient_periods <= periods - 1``)
-dt                   time step, s (default: the simulator's ``DEFAULT_DT``)
-torque               ``"start"`` (default) or ``"end"``
-rotation             ``"momentum"`` (default) or ``"paper"`` (the rotational row, MODEL.md)
+dt                   time step, s (default: the simulator's default step of the most
+                     demanding cell, model/step_size.py; 5e-5 s at the paper's fields)
+torque               ``"start"`` (default), ``"end"`` or ``"mid"`` (their mean)
+rotation             ``"momentum"`` (default), ``"paper"`` (the rotational row, MODEL.md) or
+                     ``"midpoint"`` (with ``torque = "mid"``: less damping of fast spins)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
 early_decision       ``true`` (default): stop a run once an energy bound shows that it can
                      no longer reach ``success_ratio`` (tumblemc.kernels.decide); its
