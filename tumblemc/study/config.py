@@ -39,8 +39,7 @@ transient_periods    periods discarded before measuring (default 1); at least on
 dt                   time step, s (default: the simulator's default step of the most
                      demanding cell, model/step_size.py; 5e-5 s at the paper's fields)
 torque               ``"start"`` (default), ``"end"`` or ``"mid"`` (their mean)
-rotation             ``"momentum"`` (default), ``"paper"`` (the rotational row, MODEL.md) or
-                     ``"midpoint"`` (with ``torque = "mid"``: less damping of fast spins)
+rotation             ``"momentum"`` (default), ``"paper"`` or ``"midpoint"`` (docs/guide/runs.md)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)
 early_decision       ``true`` (default): stop a run once an energy bound shows that it can
                      no longer reach ``success_ratio`` (tumblemc.kernels.decide); its
