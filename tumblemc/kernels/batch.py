@@ -13,15 +13,13 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit, jit_alloc
-from .field import field_work_bound
+from .field import field_energy_range, field_work_bound
 from .layout import (
     ENERGY_GAIN_TOL,
     L_GAIN,
     L_KE,
     L_MAGMAX,
     L_POTMAX,
-    L_UHI,
-    L_ULO,
     L_XGAIN,
     O_DECIDE,
     O_DECIDE_NEED,
@@ -194,7 +192,7 @@ def run_batch(geo, batch, grid, opts, buf, rec, out):  # type: ignore[no-untyped
             # and the field_work_bound column are the whole run's; the gain only grows)
             eref += field_work_bound(prms[b], n_steps * hs[b] if status == ST_DECIDED else t_run)
         gain = rec[rows - 1, R_LED + L_GAIN]
-        xref = base + rec[rows - 1, R_LED + L_MAGMAX] + (rec[rows - 1, R_LED + L_UHI] - rec[rows - 1, R_LED + L_ULO])
+        xref = base + rec[rows - 1, R_LED + L_MAGMAX] + field_energy_range(prms[b])
         xgain = rec[rows - 1, R_LED + L_XGAIN]
         if xgain * eref > gain * xref:  # xgain / xref > gain / eref (both references > 0)
             gain = xgain

@@ -54,6 +54,24 @@ def field_work_bound(prm, duration):  # type: ignore[no-untyped-def]
 
 
 @jit
+def field_energy_range(prm):  # type: ignore[no-untyped-def]
+    """The magnetic energy's range, ``2 |m| max|B|`` (scaled): what a magnet can exchange with the
+    body by turning, whatever the field does (the first term of :func:`field_work_between`,
+    at the program's strongest segment)."""
+    if prm[P_FIELD_ON] < 0.5:
+        return 0.0
+    n = int(prm[P_FPROG])
+    if n == 0:
+        return 2.0 * prm[P_TORQ]
+    best = 0.0
+    for k in range(n):
+        b = N_PRM + k * FSEG
+        bias = math.sqrt(prm[b + FS_BIAS] ** 2 + prm[b + FS_BIAS + 1] ** 2 + prm[b + FS_BIAS + 2] ** 2)
+        best = max(best, 2.0 * (abs(prm[b + FS_AMP]) + bias))
+    return best
+
+
+@jit
 def field_work_between(prm, ta, tb):  # type: ignore[no-untyped-def]
     """The most work the field can do on the magnet between the times ``ta`` and ``tb``
     (scaled): per segment of a program that overlaps ``[ta, tb]``, its energy range plus
@@ -77,4 +95,4 @@ def field_work_between(prm, ta, tb):  # type: ignore[no-untyped-def]
     return tot
 
 
-__all__ = ["field_dir", "field_work_between", "field_work_bound", "program_field"]
+__all__ = ["field_dir", "field_energy_range", "field_work_between", "field_work_bound", "program_field"]

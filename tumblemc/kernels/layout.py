@@ -156,8 +156,8 @@ R_FAIL = 24  # steps in the interval with a sub-step that did not converge at th
 R_ECP = 25  # ECP a1 of the first piece in contact (3)
 R_LOOSE = 28  # steps in the interval with a (sub-)step kept unsolved: residual between O_TOL and O_ACCEPT, or by O_IMPULSE
 R_LED = 29  # the energy ledger at the recorded instant (N_LED columns, L_* order)
-R_IMPULSE = 48  # steps in the interval with a (sub-)step kept by O_IMPULSE alone (a subset of R_LOOSE)
-N_REC = 49
+R_IMPULSE = 46  # steps in the interval with a (sub-)step kept by O_IMPULSE alone (a subset of R_LOOSE)
+N_REC = 47
 
 # ---- ledger columns (cumulative over the run, except L_KE) ---------------------------
 L_WMAG = 0  # work of the magnetic torque
@@ -176,9 +176,7 @@ L_EXCESS = 12  # energy above its start beyond the field's work and every force'
 L_XGAIN = 13  # numerical energy excess: the most L_EXCESS has reached (0 at the start)
 L_WMAGX = 14  # the magnetic energy the rotation released: cumulative -dU_rot (what h T . w+ approximates)
 L_MAGMAX = 15  # the most energy the magnet has delivered: max over steps of L_WMAGX
-L_UHI = 16  # the magnetic energy's highest value so far, relative to its start
-L_ULO = 17  # its lowest (L_UHI - L_ULO: the magnetic energy's range, exchanged within a turn)
-N_LED = 18
+N_LED = 16
 # a run whose numerical energy gain (L_GAIN) exceeds this fraction of its energy scale (field
 # work bound + initial kinetic energy + potential energy released + m g x length unit) is
 # flagged (model/energy.py)

@@ -59,8 +59,6 @@ from .layout import (
     L_KE,
     L_MAGMAX,
     L_POTMAX,
-    L_UHI,
-    L_ULO,
     L_WADH,
     L_WELECT,
     L_WFIELD,
@@ -262,9 +260,6 @@ def ledger_add(led, ls):  # type: ignore[no-untyped-def]
         led[L_XGAIN] = np.inf
     led[L_WMAGX] += ls[L_WMAGX]
     led[L_MAGMAX] = max(led[L_MAGMAX], led[L_WMAGX])
-    du = led[L_WFIELD] - led[L_WMAGX]  # U(t) - U(0)
-    led[L_UHI] = max(led[L_UHI], du)
-    led[L_ULO] = min(led[L_ULO], du)
 
 
 __all__ = ["N_LW", "kinetic_energy", "ledger_add", "ledger_step"]

@@ -20,8 +20,8 @@ bound ``|m||B| (2 + 2 pi f T)``, the potential energy gravity and the electrosta
 released, the initial kinetic energy and ``m g x 1e-4 m`` (so that a run without field has
 a scale). The energy excess's scale is the energy the run actually received: the same
 initial kinetic energy, weight and potential energy released, plus the most magnetic
-energy the magnet handed to the body and the magnetic energy's range over the run (what a
-turning magnet exchanges within a turn), not a bound that grows with the frequency. A run
+energy the magnet handed to the body and the magnetic energy's range ``2 |m| max|B|`` (what
+a turning magnet exchanges within a turn), not a bound that grows with the frequency. A run
 whose larger ratio exceeds 1% gets the outcome status ``energy_gain``: the numbers it
 reports rest on energy the model cannot make. Measured in ``docs/notes/energy_ledger.md``.
 """
@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from tumblemc.kernels import layout as L
+from tumblemc.kernels.field import field_energy_range
 from tumblemc.kernels.field import field_work_bound as kernel_work_bound
 from tumblemc.model.frames import quat_to_matrix
 from tumblemc.model.units import Units
@@ -77,15 +78,16 @@ def energy_reference(prm: np.ndarray, duration: float, ke0: float, released: flo
     return (ke0 + prm[L.P_MASS] * prm[L.P_G] + released) + field_work_bound(prm, duration)  # the batch kernel's order
 
 
-def energy_received(prm: np.ndarray, ke0: float, released: float, magnetic: float, magnetic_range: float) -> float:
+def energy_received(prm: np.ndarray, ke0: float, released: float, magnetic: float) -> float:
     """The energy scale of the energy excess (kernel units): the energy the run received.
 
     The initial kinetic energy + the weight times the length unit + the potential energy
     released + the magnetic energy released (``magnetic``: the most energy the magnet has
-    handed to the body since the start, ``L_MAGMAX``) + the magnetic energy's range over
-    the run (``magnetic_range``: what a turning magnet exchanges within a turn).
+    handed to the body since the start, ``L_MAGMAX``) + the magnetic energy's range
+    ``2 |m| max|B|`` (what a turning magnet exchanges with the body within a turn, whatever
+    the field does; not the field's work bound, which grows with the frequency).
     """
-    return (ke0 + prm[L.P_MASS] * prm[L.P_G] + released) + (magnetic + magnetic_range)  # the batch kernel's order
+    return (ke0 + prm[L.P_MASS] * prm[L.P_G] + released) + (magnetic + float(field_energy_range(prm)))  # the batch kernel's order
 
 
 def ledger_variables(
@@ -125,7 +127,7 @@ def energy_summary(prm: np.ndarray, units: Units, rows: np.ndarray) -> dict[str,
     released = float(last[L.L_POTMAX])
     gain, ref = float(last[L.L_GAIN]), energy_reference(prm, duration, ke0, released)
     xgain = float(last[L.L_XGAIN])
-    xref = energy_received(prm, ke0, released, float(last[L.L_MAGMAX]), float(last[L.L_UHI] - last[L.L_ULO]))
+    xref = energy_received(prm, ke0, released, float(last[L.L_MAGMAX]))
     return {
         "energy_gain_J": (xgain if xgain * ref > gain * xref else gain) * units.energy,
         "contact_gain_J": gain * units.energy,
