@@ -27,8 +27,8 @@ import numpy as np
 from tumblemc.model.params import get_preset
 from tumblemc.model.shapes.library import get_shape
 
-BURN_STEPS = 1000  # steps before the stragglers are moved, and again after
-MIN_STEPS = 2000  # production steps, at least
+BURN_STEPS = 750  # steps before the stragglers are moved, and again after
+MIN_STEPS = 1500  # production steps, at least
 MAX_STEPS = 20000  # production steps, at most (a chain 50 autocorrelation times long stops earlier)
 TAU_FACTOR = 50  # emcee's own rule: trust tau once the chain is 50 tau long
 STRAGGLER_LOGP = 10.0  # a walker whose log posterior sits this far (plus p) below the median after burn-in is moved
