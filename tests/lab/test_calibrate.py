@@ -263,3 +263,25 @@ def test_auto_model_fits_the_closed_form_and_checks_it_with_the_simulator(tmp_pa
     assert 0.0 <= post.attrs["simulator_check_rms"] < 0.05  # degrees: the two models agree
     with pytest.raises(ValueError, match="model='exact' is not allowed"):
         C.calibrate(tmp_path / "t.csv", ["F_elect"], model="exact")
+
+
+@pytest.mark.slow
+def test_the_quick_coverage_campaign(tmp_path) -> None:
+    # tools/calibration_coverage.py --quick: the 1/50-adhesion case, 5 replicates (about 15 s)
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("calibration_coverage", Path(__file__).parents[2] / "tools" / "calibration_coverage.py")
+    assert spec and spec.loader
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    mod.main(["--quick", "--out", str(tmp_path / "cov.md")])
+    text = (tmp_path / "cov.md").read_text()
+    rows = {
+        r.split("|")[1].strip(): [float(v) for v in r.split("|")[2:5]]
+        for r in text.splitlines()
+        if r.startswith("| share") or r.startswith("| fit")
+    }
+    assert rows["share of draws reproducing the lift-off the data show"][1] >= 0.9  # the worst replicate
+    assert rows["share of held-out points in the 95% predictive band"][0] >= 0.85
+    assert rows["fit time (s, one core)"][2] < 60.0

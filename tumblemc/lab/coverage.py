@@ -56,10 +56,10 @@ def coverage(
     truth = truth or {"F_elect": 2.5e-6, "offset_deg": 22.0}
     x = np.asarray(fields_mT, float)
     if clean is None:
-        clean = tilt_balance_batch(x, "paper", **truth)
+        clean = tilt_balance_batch(x, "paper", None, **truth)
     xh = np.asarray(heldout_mT, float) if heldout_mT is not None else 0.5 * (x[1:] + x[:-1])
     if heldout_clean is None:
-        heldout_clean = tilt_balance_batch(xh, "paper", **truth)
+        heldout_clean = tilt_balance_batch(xh, "paper", None, **truth)
     rng = np.random.default_rng(seed)
     names = list(truth)
     hit = np.zeros((n_rep, len(names)), bool)
