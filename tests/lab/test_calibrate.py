@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from tests.tooling import load_tool
 from tumblemc import lab
 from tumblemc.cli import main
 from tumblemc.lab import bounds
@@ -122,6 +123,17 @@ def test_cliff_draws_reproduce_the_lift_off(cliff) -> None:
     lap = C.calibrate(data, ["F_elect", "offset_deg", "adhesion_C"], model="closed-form", posterior="laplace")
     assert lap.attrs["liftoff_share"] < 0.8
     assert "Laplace" in lap.attrs["posterior"] and "requested" in lap.attrs["posterior"]
+
+
+def test_a_study_reads_the_sampled_posterior(cliff, tmp_path) -> None:
+    from tumblemc.study.posterior import load_posterior
+
+    _, post = cliff
+    post.to_netcdf(tmp_path / "calib.nc")
+    got = load_posterior(str(tmp_path / "calib.nc"))
+    assert set(got.params) == {"F_elect", "offset_deg", "adhesion_C"}  # not noise_sd: not a Params field
+    np.testing.assert_array_equal(got.draws[:, got.params.index("adhesion_C")], post["adhesion_C"].values)
+    assert lab.posterior_samples(str(tmp_path / "calib.nc"), 3)[0].keys() == set(got.params)
 
 
 def test_the_report_says_what_the_data_rule_out(cliff) -> None:
@@ -268,13 +280,7 @@ def test_auto_model_fits_the_closed_form_and_checks_it_with_the_simulator(tmp_pa
 @pytest.mark.slow
 def test_the_quick_coverage_campaign(tmp_path) -> None:
     # tools/calibration_coverage.py --quick: the 1/50-adhesion case, 5 replicates (about 15 s)
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location("calibration_coverage", Path(__file__).parents[2] / "tools" / "calibration_coverage.py")
-    assert spec and spec.loader
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_tool("calibration_coverage")
     mod.main(["--quick", "--out", str(tmp_path / "cov.md")])
     text = (tmp_path / "cov.md").read_text()
     rows = {

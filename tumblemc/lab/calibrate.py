@@ -399,6 +399,7 @@ def calibrate(  # noqa: C901
             "posterior_method": method,
             "autocorr_steps": chain.tau.tolist() if chain else [],
             "mcmc_steps": chain.n_steps if chain else 0,
+            "mcmc_long_enough": int(bool(chain and chain.n_steps >= mc.TAU_FACTOR * float(np.max(chain.tau)))),
             "mcmc_walkers": chain.n_walkers if chain else 0,
             "mcmc_acceptance": chain.acceptance if chain else math.nan,
             "mcmc_moved_walkers": chain.n_moved if chain else 0,
@@ -431,7 +432,12 @@ def report(ds: xr.Dataset) -> list[str]:
     lines.append(f"posterior: {a['posterior']}")
     if a.get("posterior_method") == "mcmc":
         tau = ", ".join(f"{t:.0f}" for t in a["autocorr_steps"])
-        lines.append(f"  autocorrelation time {tau} steps; acceptance {a['mcmc_acceptance']:.2f}")
+        ok = (
+            ""
+            if a.get("mcmc_long_enough", 1)
+            else f" (warning: the chain is shorter than {mc.TAU_FACTOR} of them: read the draws with care)"
+        )
+        lines.append(f"  autocorrelation time {tau} steps; acceptance {a['mcmc_acceptance']:.2f}{ok}")
     cond = a["condition_number"]
     lines.append(
         f"rms residual {a['rms_residual']:.4g}, {a['n_evaluations']} {a['fit_model']} evaluations in the fit, condition {cond:.3g}"

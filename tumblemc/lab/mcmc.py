@@ -17,6 +17,7 @@ which a lift-off threshold makes, is explored beyond the optimum's side of it).
 from __future__ import annotations
 
 import functools
+import logging
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -169,19 +170,25 @@ def sample_posterior(
     sampler.reset()
     steps = 0
     tau = np.full(p, np.nan)
-    while steps < MAX_STEPS:
-        n = MIN_STEPS if steps == 0 else min(steps, MAX_STEPS - steps)
-        state = sampler.run_mcmc(state, n)
-        steps += n
-        tau = np.asarray(sampler.get_autocorr_time(quiet=True), float)
-        if np.all(np.isfinite(tau)) and TAU_FACTOR * float(tau.max()) <= steps:
-            break
+    log = logging.getLogger("emcee")  # its "chain too short" warning: the loop below acts on it, the result records tau
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        while steps < MAX_STEPS:
+            n = MIN_STEPS if steps == 0 else min(steps, MAX_STEPS - steps)
+            state = sampler.run_mcmc(state, n)
+            steps += n
+            tau = np.asarray(sampler.get_autocorr_time(quiet=True), float)
+            if np.all(np.isfinite(tau)) and TAU_FACTOR * float(tau.max()) <= steps:
+                break
+    finally:
+        log.setLevel(level)
     thin = max(1, int(0.5 * float(np.nanmax(tau)))) if np.any(np.isfinite(tau)) else 1
     flat = sampler.get_chain(thin=thin, flat=True)
     if len(flat) < n_draws:
         flat = sampler.get_chain(flat=True)
     pick = rng.choice(len(flat), n_draws, replace=len(flat) < n_draws)
-    return Chain(flat[np.sort(pick)], k, steps, tau, float(np.mean(sampler.acceptance_fraction)), int(stuck.sum()), calls[0])
+    return Chain(flat[pick], k, steps, tau, float(np.mean(sampler.acceptance_fraction)), int(stuck.sum()), calls[0])
 
 
 def noise_sd_draws(ssr: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:

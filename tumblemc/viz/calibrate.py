@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -20,13 +21,16 @@ AXIS_LABELS = {
 
 
 def plot_calibration(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Left: the data, the model at the estimate, the 95% bands of the model and of new data. Right: the posterior of two free fields.
+    """Left: the data, the model at the estimate, the 95% bands of the model and of new data. Right: the posterior, in pairs.
 
     The curve and the bands are drawn on ``x_grid`` (a fine grid with the closed form; the
     data's x with the simulator); data points outside their predictive band are red crosses.
+    The posterior panels pair the first free field with the second (and the third).
     """
-    fig = Figure(figsize=(11.0, 4.2))
-    ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.3, 1.0]})
+    three = ds.sizes.get("param", 0) >= 3
+    fig = Figure(figsize=(15.5 if three else 11.0, 4.2))
+    axes = fig.subplots(1, 3 if three else 2, gridspec_kw={"width_ratios": [1.3, 1.0, 1.0] if three else [1.3, 1.0]})
+    ax, ax2 = axes[0], axes[1]
     g = "grid_" if "x_grid" in ds.coords else ""
     xg = ds["x_grid"].values if g else ds["x"].values
     order = np.argsort(xg)
@@ -57,17 +61,21 @@ def plot_calibration(ds: xr.Dataset, path: str | os.PathLike[str] | None = None)
     ax.set_title(f"{ds.attrs['test']} of the {ds.attrs['shape']} robot: rms residual {ds.attrs['rms_residual']:.3g}{check}", fontsize=9)
     names = list(ds["param"].values)
     scales = str(ds.attrs.get("sampling_scale", "")).split(",")
-    log = {nm: i < len(scales) and scales[i] == "log" for i, nm in enumerate(names)}
     preset = str(ds.attrs.get("preset", "paper"))
+
+    def spans_decades(nm: str) -> bool:  # a log axis for a log-scale field whose draws and preset span a decade or more
+        v = np.append(ds[nm].values, float(getattr(get_preset(preset), nm)))
+        return bool(v.min() > 0 and v.max() > 10.0 * v.min())
+
+    log = {nm: i < len(scales) and scales[i] == "log" and spans_decades(nm) for i, nm in enumerate(names)}
 
     def label(nm: str) -> str:
         return f"{nm} ({ds[nm].attrs.get('units', '')})"
 
-    if len(names) >= 2:
-        a, b = names[0], names[1]
-        ax2.plot(ds[a].values, ds[b].values, ".", ms=2, alpha=0.3, color="C1", label="posterior draws")
-        ax2.plot(float(ds[f"estimate_{a}"]), float(ds[f"estimate_{b}"]), "k+", ms=12, mew=2, label="estimate")
-        ax2.plot(
+    def pair(axp: Any, a: str, b: str) -> None:
+        axp.plot(ds[a].values, ds[b].values, ".", ms=2, alpha=0.3, color="C1", label="posterior draws")
+        axp.plot(float(ds[f"estimate_{a}"]), float(ds[f"estimate_{b}"]), "k+", ms=12, mew=2, label="estimate")
+        axp.plot(
             float(getattr(get_preset(preset), a)),
             float(getattr(get_preset(preset), b)),
             "s",
@@ -76,13 +84,19 @@ def plot_calibration(ds: xr.Dataset, path: str | os.PathLike[str] | None = None)
             ms=8,
             label=f"preset {preset!r}",
         )
-        ax2.set_xlabel(label(a))
-        ax2.set_ylabel(label(b))
+        axp.set_xlabel(label(a))
+        axp.set_ylabel(label(b))
         if log[a]:
-            ax2.set_xscale("log")
+            axp.set_xscale("log")
         if log[b]:
-            ax2.set_yscale("log")
-        ax2.legend(fontsize=7)
+            axp.set_yscale("log")
+        axp.legend(fontsize=7)
+        axp.grid(alpha=0.3)
+
+    if len(names) >= 2:
+        pair(ax2, names[0], names[1])
+        if three:
+            pair(axes[2], names[0], names[2])
     else:
         v = ds[names[0]].values
         bins = np.geomspace(v.min(), v.max(), 41) if log[names[0]] and v.min() > 0 else 40
@@ -93,12 +107,12 @@ def plot_calibration(ds: xr.Dataset, path: str | os.PathLike[str] | None = None)
         ax2.set_xlabel(label(names[0]))
         ax2.set_ylabel("posterior draws")
         ax2.legend(fontsize=7)
+        ax2.grid(alpha=0.3)
     if not any(log.values()):
         ax2.ticklabel_format(style="sci", scilimits=(-3, 4))
     undet = ds.attrs.get("undetermined", "")
     method = {"mcmc": "MCMC", "laplace": "Laplace"}.get(str(ds.attrs.get("posterior_method", "laplace")), "")
     ax2.set_title(f"posterior ({method})" + (f"; not determined: {undet}" if undet else ""), fontsize=9)
-    ax2.grid(alpha=0.3)
     fig.tight_layout()
     save_figure(fig, path)
     return fig
