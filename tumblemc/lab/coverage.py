@@ -31,6 +31,7 @@ def coverage(
     heldout_mT: Sequence[float] | None = None,
     heldout_clean: np.ndarray | None = None,
     n_posterior: int = 1000,
+    shift_mT: float = 0.0,
     **options: Any,
 ) -> xr.Dataset:
     """Coverage of the posterior's central ``level`` intervals, and its predictions, on synthetic static-tilt data.
@@ -41,7 +42,10 @@ def coverage(
     model (``options`` go to :func:`~tumblemc.lab.calibrate.calibrate`, e.g. ``bounds`` or
     ``posterior="laplace"``), free parameters the keys of ``truth`` (default: F_elect
     2.5e-6 N, offset_deg 22). Held-out points: ``heldout_clean`` at ``heldout_mT`` (default:
-    the closed form at the midpoints of ``fields_mT``) plus new noise.
+    the closed form at the midpoints of ``fields_mT``) plus new noise. ``shift_mT`` > 0
+    moves each replicate's fields (data and held-out) by a uniform offset in
+    ``[0, shift_mT)``, the noise-free tilts then from the closed form: where the data fall
+    relative to the lift-off field varies as it would between labs.
 
     Returns
     -------
@@ -54,12 +58,15 @@ def coverage(
         ``tau_max`` (largest autocorrelation time, steps; NaN for Laplace).
     """
     truth = truth or {"F_elect": 2.5e-6, "offset_deg": 22.0}
+    if shift_mT > 0.0 and (clean is not None or heldout_clean is not None):
+        raise ValueError(f"shift_mT={shift_mT:g} recomputes the noise-free tilts (allowed: clean=None, heldout_clean=None, or shift_mT=0)")
     x = np.asarray(fields_mT, float)
     if clean is None:
         clean = tilt_balance_batch(x, "paper", None, **truth)
     xh = np.asarray(heldout_mT, float) if heldout_mT is not None else 0.5 * (x[1:] + x[:-1])
     if heldout_clean is None:
         heldout_clean = tilt_balance_batch(xh, "paper", None, **truth)
+    x0, xh0 = x.copy(), xh.copy()
     rng = np.random.default_rng(seed)
     names = list(truth)
     hit = np.zeros((n_rep, len(names)), bool)
@@ -70,6 +77,10 @@ def coverage(
     for i in range(n_rep):
         if progress and i % 10 == 0:
             print(f"coverage replicate {i + 1}/{n_rep}", flush=True)
+        if shift_mT > 0.0:
+            d = rng.uniform(0.0, shift_mT)
+            x, xh = x0 + d, xh0 + d
+            clean, heldout_clean = tilt_balance_batch(x, "paper", None, **truth), tilt_balance_batch(xh, "paper", None, **truth)
         y = clean + rng.normal(0.0, noise_deg, x.size)
         yh = heldout_clean + rng.normal(0.0, noise_deg, xh.size)
         data = BenchData("static_tilt", "field_mT", "tilt_deg", "degree", x, y, "synthetic")
@@ -103,7 +114,14 @@ def coverage(
             **{k: ("replicate", v) for k, v in per.items()},
         },
         coords={"param": names},
-        attrs={"n_rep": n_rep, "noise_deg": noise_deg, "level": level, "truth": repr(truth), "fields_mT": x.tolist()},
+        attrs={
+            "n_rep": n_rep,
+            "noise_deg": noise_deg,
+            "level": level,
+            "truth": repr(truth),
+            "fields_mT": x0.tolist(),
+            "shift_mT": shift_mT,
+        },
     )
 
 
