@@ -19,8 +19,8 @@ from tumblemc.lab.mcmc import Scales
 from tumblemc.model.params import NUMERIC_FIELDS, RANGES, get_preset
 
 #: default bounds (lo, hi, log scale) where the physical range of :data:`RANGES` is too wide
-#: to sample: the magnetisation within 90 deg of the length axis, friction 0.01 to 3
-PHYSICAL_BOUNDS: dict[str, tuple[float, float, bool]] = {"offset_deg": (-90.0, 90.0, False), "mu": (0.01, 3.0, True)}
+#: to sample: the magnetisation within 90 deg of the length axis, friction 0.01 to 1.5 (linear: a decade or two at most)
+PHYSICAL_BOUNDS: dict[str, tuple[float, float, bool]] = {"offset_deg": (-90.0, 90.0, False), "mu": (0.01, 1.5, False)}
 SCALE_DECADES = 3.0  # default bounds of a scale parameter: the preset's value x 10^-3 to x 10^3, log scale
 PRESS_ZONE = 0.01  # within 1% of a bound in z (the sampling scale) ...
 PRESS_SHARE = 0.05  # ... the optimum, or this share of the draws, presses on it
