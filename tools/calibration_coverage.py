@@ -1,18 +1,30 @@
 """The calibration coverage campaign: writes docs/notes/calibration_coverage.md.
 
-    python tools/calibration_coverage.py [--reps 50] [--out docs/notes/calibration_coverage.md]
+    python tools/calibration_coverage.py [--reps 50] [--out docs/notes/calibration_coverage.md] [--quick]
 
-1. Synthetic bench data as the issue specifies: ``lab.static_tilt`` (the simulator) of the
-   paper cuboid at known parameters (F_elect = 2.5e-6 N, offset_deg = 22, adhesion_C =
-   5 N/m^2), 15 fields from 3 to 15 mT, plus 1 deg of normal noise; three free parameters
-   (F_elect, offset_deg, adhesion_C). The simulator is deterministic, so the noise-free
-   tilts are simulated once and each replicate draws new noise.
-2. Each replicate is calibrated with the closed-form model (docs/guide/lab.md: it matches the
-   simulator to 0.002 deg); per parameter, the share of 95% intervals holding the truth.
-3. One replicate is also calibrated with the simulator as the forward model, timed.
-4. The two-parameter closed-form campaign of docs/guide/calibration.md (400 replicates).
+Each case draws synthetic static-tilt data sets at known parameters (noise-free tilts plus
+normal noise), calibrates each with the closed-form model and the default posterior (MCMC,
+emcee) and measures (tumblemc.lab.coverage): the share of 95% intervals holding the truth,
+the share of posterior draws that tilt at every field where the data show a clear tilt
+(> 3 noise sd), the share of held-out points (the truth at the midpoints between the data
+fields, new noise) inside the 95% posterior predictive band, the fit time and the
+autocorrelation time.
 
-CI runs a small version (tests/lab/test_calibrate.py).
+1. Three free parameters (F_elect, offset_deg, adhesion_C), simulated data: ``lab.static_tilt``
+   (the simulator) of the paper cuboid at F_elect = 2.5e-6 N, offset_deg = 22, adhesion_C =
+   5 N/m^2, 15 fields from 3 to 15 mT, 1 deg noise.
+2. The same with adhesion_C at 1/50 of the preset's (0.0743 N/m^2): the robot lifts off
+   below 4.7 mT, where the preset's adhesion holds it flat up to 7 mT; also with the
+   Laplace posterior (``posterior="laplace"``), for comparison.
+   Cases 1 and 2 are also run with the field grid shifted by a uniform offset (up to one
+   field spacing) per replicate, closed-form data: a parameter that only the lift-off
+   determines (adhesion_C) has a posterior flat between the last flat and the first lifted
+   field, so the coverage of its intervals depends on where the truth's lift-off falls
+   between two fields; shifting the grid averages over that.
+3. Two free parameters (F_elect, offset_deg), closed-form data, 13 fields, 0.5 deg noise.
+4. One replicate of case 1 with the simulator as the forward model (the Laplace fallback), timed.
+
+``--quick`` runs case 2 alone on closed-form data with 5 replicates (tests/lab/test_calibrate.py).
 """
 
 from __future__ import annotations
@@ -24,88 +36,154 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import xarray as xr
 
 from tumblemc import lab
-from tumblemc.lab.calibrate import BenchData, calibrate, coverage
+from tumblemc.lab.calibrate import BenchData, calibrate
+from tumblemc.lab.coverage import coverage
+from tumblemc.model.params import get_preset
 
 TRUTH: dict[str, Any] = {"F_elect": 2.5e-6, "offset_deg": 22.0, "adhesion_C": 5.0}
+CLIFF: dict[str, Any] = {"F_elect": 2.5e-6, "offset_deg": 22.0, "adhesion_C": get_preset("paper").adhesion_C / 50}
 FIELDS = [float(v) for v in np.linspace(3.0, 15.0, 15)]
+SPACING = FIELDS[1] - FIELDS[0]
+HELDOUT = [float(v) for v in 0.5 * (np.asarray(FIELDS[1:]) + np.asarray(FIELDS[:-1]))]
 
 
-def main() -> None:
+def table(cov: xr.Dataset) -> list[str]:
+    """The per-parameter coverage table and the prediction summary of one case."""
+    lines = ["| parameter | coverage of the 95% intervals | mean width | flagged undetermined |", "|---|---|---|---|"]
+    for p in cov["param"].values:
+        c = cov.sel(param=p)
+        lines.append(f"| {p} | {float(c['coverage']):.3f} | {float(c['mean_width']):.4g} | {float(c['undetermined_share']):.0%} |")
+    lift = cov["liftoff_share"].values
+    tau = cov["tau_max"].values
+    lines += [
+        "",
+        "| measure | mean | min | max |",
+        "|---|---|---|---|",
+        f"| share of draws reproducing the lift-off the data show | {np.nanmean(lift):.3f} | {np.nanmin(lift):.3f} | "
+        f"{np.nanmax(lift):.3f} |",
+        f"| share of held-out points in the 95% predictive band | {cov['heldout_share'].mean():.3f} | "
+        f"{cov['heldout_share'].min():.3f} | {cov['heldout_share'].max():.3f} |",
+        f"| share of the data in their 95% predictive band | {cov['predictive_share'].mean():.3f} | "
+        f"{cov['predictive_share'].min():.3f} | {cov['predictive_share'].max():.3f} |",
+        f"| fit time (s, one core) | {cov['fit_s'].mean():.2f} | {cov['fit_s'].min():.2f} | {cov['fit_s'].max():.2f} |",
+    ]
+    if np.isfinite(tau).any():
+        lines.append(f"| largest autocorrelation time (steps) | {np.nanmean(tau):.1f} | {np.nanmin(tau):.1f} | {np.nanmax(tau):.1f} |")
+    n_lift, se = int(np.sum(np.isfinite(lift))), (0.95 * 0.05 / cov.attrs["n_rep"]) ** 0.5
+    lines += [
+        "",
+        f"Replicates whose draws reproduce the lift-off in at least 90%: {int(np.sum(lift >= 0.9))} of {n_lift}. "
+        f"Binomial standard error of a coverage at 95% with {cov.attrs['n_rep']} replicates: {se:.3f}.",
+    ]
+    return lines
+
+
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=50)
     ap.add_argument("--out", default="docs/notes/calibration_coverage.md")
-    args = ap.parse_args()
+    ap.add_argument("--quick", action="store_true", help="case 2 alone, closed-form data, 5 replicates")
+    args = ap.parse_args(argv)
+    head = [
+        "# Calibration coverage campaign",
+        "",
+        f"Written by `python tools/calibration_coverage.py {'--quick' if args.quick else f'--reps {args.reps}'}` "
+        f"({platform.node()}, {time.strftime('%Y-%m-%d')}). Method: [calibration.md](../guide/calibration.md). "
+        "Each replicate is calibrated with the closed-form model and the default posterior (MCMC, emcee); "
+        "held-out points are the truth at the 14 midpoints between the data fields plus new noise.",
+        "",
+    ]
+    if args.quick:
+        t0 = time.perf_counter()
+        cov = coverage(5, CLIFF, FIELDS, noise_deg=1.0, seed=21, heldout_mT=HELDOUT)
+        lines = head + [f"## Adhesion 1/50 of the preset's, closed-form data ({time.perf_counter() - t0:.0f} s)", "", *table(cov)]
+        Path(args.out).write_text("\n".join(lines) + "\n")
+        print("\n".join(lines))
+        return
+    lines = list(head)
+    for title, truth, seed in (
+        ("Three free parameters, simulated data, 1 deg noise", TRUTH, 11),
+        ("Adhesion 1/50 of the preset's", CLIFF, 21),
+    ):
+        t0 = time.perf_counter()
+        sim = lab.static_tilt(FIELDS, **truth)
+        held = lab.static_tilt(HELDOUT, **truth)["tilt_deg"].values
+        t_sim = time.perf_counter() - t0
+        clean = sim["tilt_deg"].values
+        cf_err = float(np.nanmax(np.abs(sim["tilt_deg"] - sim["tilt_closed_form_deg"])))
+        t0 = time.perf_counter()
+        cov = coverage(args.reps, truth, FIELDS, 1.0, seed=seed, clean=clean, heldout_mT=HELDOUT, heldout_clean=held, progress=True)
+        t_cov = time.perf_counter() - t0
+        lines += [
+            f"## {title}",
+            "",
+            f"Truth {truth}; 15 fields from 3 to 15 mT; `lab.static_tilt` of the truth ({t_sim:.0f} s for the data and held-out "
+            f"fields; it differs from the closed form by at most {cf_err:.4f} deg); clean tilts {np.round(clean, 1).tolist()} deg; "
+            f"{args.reps} replicates of 1-deg noise, F_elect, offset_deg and adhesion_C free (default bounds), {t_cov:.0f} s in all.",
+            "",
+            *table(cov),
+            "",
+        ]
+        t0 = time.perf_counter()
+        shifted = coverage(args.reps, truth, FIELDS, 1.0, seed=seed + 1, heldout_mT=HELDOUT, shift_mT=SPACING)
+        lines += [
+            f"**The field grid shifted** by a uniform offset in [0, {SPACING:.3f}) mT per replicate (closed-form data; where "
+            f"the data fall relative to the lift-off varies as between labs; {time.perf_counter() - t0:.0f} s):",
+            "",
+            *table(shifted),
+            "",
+        ]
+        if truth is CLIFF:
+            t0 = time.perf_counter()
+            lap = coverage(
+                args.reps, truth, FIELDS, 1.0, seed=seed, clean=clean, heldout_mT=HELDOUT, heldout_clean=held, posterior="laplace"
+            )
+            lines += [
+                f'**The same data sets with the Laplace posterior** (`posterior="laplace"`, {time.perf_counter() - t0:.0f} s):',
+                "",
+                *table(lap),
+                "",
+            ]
     t0 = time.perf_counter()
-    sim = lab.static_tilt(FIELDS, **TRUTH)
-    t_sim = time.perf_counter() - t0
-    clean = sim["tilt_deg"].values
-    cf_err = float(np.nanmax(np.abs(sim["tilt_deg"] - sim["tilt_closed_form_deg"])))
-    t0 = time.perf_counter()
-    cov = coverage(args.reps, TRUTH, FIELDS, noise_deg=1.0, seed=11, clean=clean, progress=True)
-    t_cov = time.perf_counter() - t0
+    cov2 = coverage(2 * args.reps, seed=1)
+    lines += [
+        "## Two free parameters, closed-form data, 0.5 deg noise",
+        "",
+        f"F_elect = 2.5e-6 N, offset_deg = 22; 13 fields (3 to 15 mT), {2 * args.reps} replicates ({time.perf_counter() - t0:.0f} s):",
+        "",
+        *table(cov2),
+        "",
+    ]
     rng = np.random.default_rng(11)
-    y = clean + rng.normal(0.0, 1.0, clean.size)
-    data = BenchData("static_tilt", "field_mT", "tilt_deg", "degree", np.asarray(FIELDS), y, "synthetic replicate 0")
+    clean = lab.static_tilt(FIELDS, **TRUTH)["tilt_deg"].values
+    data = BenchData("static_tilt", "field_mT", "tilt_deg", "degree", np.asarray(FIELDS), clean + rng.normal(0.0, 1.0, clean.size), "rep 0")
     t0 = time.perf_counter()
     post = calibrate(data, list(TRUTH), model="simulate")
     t_fit = time.perf_counter() - t0
     t0 = time.perf_counter()
     auto = calibrate(data, list(TRUTH))
     t_auto = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    cov2 = coverage(400)
-    t_cov2 = time.perf_counter() - t0
-    lines = [
-        "# Calibration coverage campaign",
-        "",
-        f"Written by `python tools/calibration_coverage.py --reps {args.reps}` ({platform.node()}, "
-        f"{time.strftime('%Y-%m-%d')}). Method: [calibration.md](calibration.md).",
-        "",
-        "## Three free parameters, simulated data, 1 deg noise",
-        "",
-        f"Truth {TRUTH}; 15 fields from 3 to 15 mT; `lab.static_tilt` of the truth ({t_sim:.1f} s; it differs from the "
-        f"closed form by at most {cf_err:.4f} deg); {args.reps} replicates of 1-deg noise, each calibrated with the closed "
-        f"form, F_elect, offset_deg and adhesion_C free (default bounds), {t_cov:.0f} s in all.",
-        "",
-        "| parameter | coverage of the 95% intervals | mean width | flagged undetermined |",
-        "|---|---|---|---|",
-    ]
-    for p in cov["param"].values:
-        c = cov.sel(param=p)
-        lines.append(f"| {p} | {float(c['coverage']):.3f} | {float(c['mean_width']):.4g} | {float(c['undetermined_share']):.0%} |")
-    se = (0.95 * 0.05 / args.reps) ** 0.5
     lines += [
+        "## The simulator as the forward model (the Laplace fallback)",
         "",
-        f"Binomial standard error of a coverage at 95% with {args.reps} replicates: {se:.3f}.",
-        "",
-        "**The simulator as the forward model** (replicate 0, same three free parameters): "
-        f"{t_fit:.0f} s, {post.attrs['n_evaluations']} model evaluations of 15 static-tilt runs "
-        f"(two threads) after a global search on the closed form, estimates "
+        f"Case 1, replicate 0: {t_fit:.0f} s, {post.attrs['n_evaluations']} model evaluations of 15 static-tilt runs after a "
+        "Latin-hypercube screen, estimates "
         + ", ".join(f"{p} = {float(post['estimate_' + p]):.5g}" for p in TRUTH)
-        + ", posterior sd "
-        + ", ".join(f"{float(post[p].std()):.3g}" for p in TRUTH)
-        + f"; undetermined: {post.attrs['undetermined'] or 'none'}; rough: {post.attrs['rough'] or 'none'}.",
+        + ", 95% intervals "
+        + ", ".join(f"{np.quantile(post[p].values, 0.025):.4g}..{np.quantile(post[p].values, 0.975):.4g}" for p in TRUTH)
+        + f"; undetermined: {post.attrs['undetermined'] or 'none'}; rough: {post.attrs['rough'] or 'none'}; "
+        f"posterior: {post.attrs['posterior']}.",
         "",
-        f"**The default (`model='auto'`)** on the same data: {t_auto:.1f} s ({auto.attrs['n_search_evaluations']} closed-form "
-        f"evaluations in the global search, {auto.attrs['n_evaluations']} in the fit, and one simulator check "
+        f"**The default (`model='auto'`)** on the same data: {t_auto:.1f} s (closed-form fit and MCMC, one simulator check "
         f"differing by {auto.attrs['simulator_check_rms']:.2g} deg rms), estimates "
         + ", ".join(f"{p} = {float(auto['estimate_' + p]):.5g}" for p in TRUTH)
-        + ", posterior sd "
-        + ", ".join(f"{float(auto[p].std()):.3g}" for p in TRUTH)
-        + f"; undetermined: {auto.attrs['undetermined'] or 'none'}.",
-        "",
-        "## Two free parameters, closed-form data, 0.5 deg noise",
-        "",
-        f"F_elect = 2.5e-6 N, offset_deg = 22; 13 fields (3 to 15 mT), 400 replicates ({t_cov2:.0f} s):",
-        "",
-        "| parameter | coverage | mean width |",
-        "|---|---|---|",
+        + ", 95% intervals "
+        + ", ".join(f"{np.quantile(auto[p].values, 0.025):.4g}..{np.quantile(auto[p].values, 0.975):.4g}" for p in TRUTH)
+        + f"; autocorrelation time {', '.join(f'{t:.0f}' for t in auto.attrs['autocorr_steps'])} steps.",
     ]
-    for p in cov2["param"].values:
-        c = cov2.sel(param=p)
-        lines.append(f"| {p} | {float(c['coverage']):.3f} | {float(c['mean_width']):.4g} |")
     Path(args.out).write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

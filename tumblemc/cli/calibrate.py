@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-import numpy as np
-
 from tumblemc.cli.common import (
     add_robot_and_output,
     parse_overrides,
@@ -22,7 +20,13 @@ def register(sub: Any) -> None:
     p.add_argument("test", choices=("static-tilt", "speed"), help="the bench test the data come from")
     p.add_argument("data", help="CSV with a header: field_mT,tilt_deg (static-tilt) or freq_hz,speed_mm_s (speed)")
     p.add_argument("--free", required=True, help="Params fields to fit, comma-separated, e.g. F_elect,offset_deg,adhesion_C")
-    p.add_argument("--bounds", action="append", default=[], metavar="NAME=LO:HI", help="bounds of a free field (default 0.25x-4x nominal)")
+    p.add_argument(
+        "--bounds",
+        action="append",
+        default=[],
+        metavar="NAME=LO:HI",
+        help="bounds of a free field (default: its physical range; a scale parameter such as adhesion_C x 1e-3 to x 1e3 the preset's, log)",
+    )
     p.add_argument("--direction", default="0,0,-1", help="static field direction, world frame (default: 0,0,-1)")
     p.add_argument(
         "--model",
@@ -30,14 +34,21 @@ def register(sub: Any) -> None:
         default="auto",
         help="forward model: auto (default: the cuboid's closed form where it applies, checked by the simulator), simulate, closed-form",
     )
+    p.add_argument(
+        "--posterior",
+        choices=("auto", "mcmc", "laplace"),
+        default="auto",
+        help="auto (default: MCMC with the closed form, Laplace with the simulator), mcmc (closed form only), laplace",
+    )
     p.add_argument("--samples", type=int, default=2000, help="posterior draws (default: 2000)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the global search and the sampler (default: 0)")
     add_robot_and_output(p, "calib.nc")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run a calibration, write the posterior file (and figure), print the estimate."""
-    from tumblemc.lab.calibrate import calibrate, read_bench
+    from tumblemc.lab.calibrate import calibrate, read_bench, report
 
     overrides = parse_overrides(args.overrides)
     data = read_bench(args.data)
@@ -54,16 +65,17 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"--bounds {item!r} is not NAME=LO:HI (allowed: e.g. --bounds F_elect=0:1e-5)") from None
     free = [f.strip() for f in args.free.split(",") if f.strip()]
     res = calibrate(
-        data, free, bounds, args.shape, args.preset, parse_vector("--direction", args.direction), args.model, args.samples, **overrides
+        data,
+        free,
+        bounds,
+        args.shape,
+        args.preset,
+        parse_vector("--direction", args.direction),
+        args.model,
+        args.samples,
+        seed=args.seed,
+        posterior=args.posterior,
+        **overrides,
     )
-    for nm in free:
-        est, sd = float(res[f"estimate_{nm}"]), float(res[nm].std())
-        lo, hi = np.quantile(res[nm].values, [0.025, 0.975])
-        print(f"{nm:>14s} = {est:.6g} (posterior sd {sd:.3g}, 95% {lo:.6g} .. {hi:.6g}) {res[nm].attrs['units']}")
-    a = res.attrs
-    print(f"rms residual {a['rms_residual']:.4g}, {a['n_evaluations']} {a['fit_model']} evaluations, condition {a['condition_number']:.3g}")
-    if np.isfinite(a["simulator_check_rms"]):
-        print(f"the simulator at the estimate differs from the closed form by {a['simulator_check_rms']:.3g} (rms, data units)")
-    if res.attrs["undetermined"]:
-        print(f"warning: the data do not determine {res.attrs['undetermined']} (its posterior keeps most of its bounds)")
+    print("\n".join(report(res)))
     return write_dataset(res, args)
