@@ -17,6 +17,7 @@ spread is within 0.05, *sensitive* when the twins move it as much as the ladder 
 
     python experiments/step_size.py ensemble [--robots 100] [--workers 2]
     python experiments/step_size.py ladder
+    python experiments/step_size.py twins       # the twins at h, h/4, h/16
     python experiments/step_size.py stepout     # paper cuboid, flat, 20 mT: default, /4, /16
     python experiments/step_size.py spin        # free-spin energy drift per integrator option
 """
@@ -156,6 +157,33 @@ def ladder(args: argparse.Namespace) -> None:
         print(f"| {cell} | {h:.4g} | {cells} | {t[0]:.3f}, {t[1]:.3f} | {verdict} (spread {spread:.3f}, twins {twin:.3f}) |", flush=True)
 
 
+def twins(args: argparse.Namespace) -> None:
+    """The nominal robot and its two twins (magnetisation x (1 -+ 1e-6)) at each rung.
+
+    How far a 1e-6 perturbation moves the ratio at each step size (the ladder but its last rung).
+    """
+    from tumblemc.model.fields import Rotating
+    from tumblemc.model.params import get_preset
+    from tumblemc.model.run import run_inputs
+
+    divs = [int(x) for x in args.divs.split(",")]
+    print("| cell | step | ratio | twins (M x 1 -+ 1e-6) | twins' spread |")
+    print("|---|---|---|---|---|")
+    for cell in args.cells.split(","):
+        c = CELLS[cell]
+        p = get_preset(c["preset"])
+        nom = {} if c["offset"] is None else {"offset_deg": c["offset"]}
+        kw = dict(nom, **({"offset_axis": (0.0, 0.0, 1.0)} if c["offset"] is not None else {}))
+        h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
+        runs = [(dict(nom, magnetization=p.magnetization * (1 + s)), h / k) for k in divs for s in (0.0, -1e-6, 1e-6)]
+        with ProcessPoolExecutor(args.workers) as ex:
+            res = list(ex.map(one, [cell] * len(runs), [r[0] for r in runs], [r[1] for r in runs]))
+        for i, k in enumerate(divs):
+            r0, r1, r2 = (x[0] for x in res[3 * i : 3 * i + 3])
+            spread = max(r0, r1, r2) - min(r0, r1, r2)
+            print(f"| {cell} | h/{k} | {r0:.3f} | {r1:.3f}, {r2:.3f} | {spread:.3f} |", flush=True)
+
+
 def _follows(f: float, div: int) -> bool:
     import tumblemc as tm
     from tumblemc.lab.protocols import STEP_OUT_SHARE, following_share
@@ -225,7 +253,7 @@ def spin(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["ensemble", "ladder", "stepout", "spin"])
+    ap.add_argument("stage", choices=["ensemble", "ladder", "twins", "stepout", "spin"])
     ap.add_argument("--robots", type=int, default=100)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cells", default=",".join(CELLS))
@@ -234,7 +262,9 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     if args.stage == "stepout" and args.divs == "1,4,16,64":
         args.divs = "1,4,16"
-    {"ensemble": ensemble, "ladder": ladder, "stepout": stepout, "spin": spin}[args.stage](args)
+    if args.stage == "twins" and args.divs == "1,4,16,64":
+        args.divs = "1,4,16"
+    {"ensemble": ensemble, "ladder": ladder, "twins": twins, "stepout": stepout, "spin": spin}[args.stage](args)
 
 
 if __name__ == "__main__":
