@@ -131,23 +131,28 @@ def ensemble(args: argparse.Namespace) -> None:
             print(f"| {cell} | {label} | {','.join(dts)} | {n}/{len(rs)} | {mean} | {pint} | {paired} | {wall:.0f} |", flush=True)
 
 
-def ladder(args: argparse.Namespace) -> None:
+def _nominal(cell: str) -> tuple[float, dict[str, float], float]:
+    """The cell's nominal magnetisation, its nominal overrides (the offset) and its default step."""
     from tumblemc.model.fields import Rotating
     from tumblemc.model.params import get_preset
     from tumblemc.model.run import run_inputs
 
+    c = CELLS[cell]
+    nom = {} if c["offset"] is None else {"offset_deg": c["offset"]}
+    kw = dict(nom, **({"offset_axis": (0.0, 0.0, 1.0)} if c["offset"] is not None else {}))
+    h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
+    return get_preset(c["preset"]).magnetization, nom, h
+
+
+def ladder(args: argparse.Namespace) -> None:
     print("| cell | h (s) | h | h/4 | h/16 | h/64 | twins at h (M x 1 -+ 1e-6) | verdict |")
     print("|---|---|---|---|---|---|---|---|")
     for cell in args.cells.split(","):
-        c = CELLS[cell]
-        p = get_preset(c["preset"])
-        nom = {} if c["offset"] is None else {"offset_deg": c["offset"]}
-        kw = dict(nom, **({"offset_axis": (0.0, 0.0, 1.0)} if c["offset"] is not None else {}))
-        h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
+        magnetization, nom, h = _nominal(cell)
         divs = [int(x) for x in args.divs.split(",")]
         with ProcessPoolExecutor(args.workers) as ex:
             lad = list(ex.map(one, [cell] * len(divs), [nom] * len(divs), [h / k for k in divs]))
-            tw = list(ex.map(one, [cell] * 2, [dict(nom, magnetization=p.magnetization * (1 + s)) for s in (-1e-6, 1e-6)], [h, h]))
+            tw = list(ex.map(one, [cell] * 2, [dict(nom, magnetization=magnetization * (1 + s)) for s in (-1e-6, 1e-6)], [h, h]))
         r = [x[0] for x in lad]
         t = [x[0] for x in tw]
         spread = max(r) - min(r)
@@ -162,20 +167,12 @@ def twins(args: argparse.Namespace) -> None:
 
     How far a 1e-6 perturbation moves the ratio at each step size (the ladder but its last rung).
     """
-    from tumblemc.model.fields import Rotating
-    from tumblemc.model.params import get_preset
-    from tumblemc.model.run import run_inputs
-
     divs = [int(x) for x in args.divs.split(",")]
     print("| cell | step | ratio | twins (M x 1 -+ 1e-6) | twins' spread |")
     print("|---|---|---|---|---|")
     for cell in args.cells.split(","):
-        c = CELLS[cell]
-        p = get_preset(c["preset"])
-        nom = {} if c["offset"] is None else {"offset_deg": c["offset"]}
-        kw = dict(nom, **({"offset_axis": (0.0, 0.0, 1.0)} if c["offset"] is not None else {}))
-        h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
-        runs = [(dict(nom, magnetization=p.magnetization * (1 + s)), h / k) for k in divs for s in (0.0, -1e-6, 1e-6)]
+        magnetization, nom, h = _nominal(cell)
+        runs = [(dict(nom, magnetization=magnetization * (1 + s)), h / k) for k in divs for s in (0.0, -1e-6, 1e-6)]
         with ProcessPoolExecutor(args.workers) as ex:
             res = list(ex.map(one, [cell] * len(runs), [r[0] for r in runs], [r[1] for r in runs]))
         for i, k in enumerate(divs):

@@ -1,0 +1,144 @@
+"""The default time step (tumblemc.model.step_size) and the ledger's field work (issue 45)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import tumblemc
+from tumblemc.model.fields import Rotating, Static
+from tumblemc.model.frames import quat_to_matrix
+from tumblemc.model.params import get_preset, magnetisation_dir
+from tumblemc.model.run import run_inputs
+from tumblemc.model.shapes.library import get_shape
+from tumblemc.model.step_size import CEILING_S, STEPS_PER_PERIOD, TURN_PER_STEP, default_step, natural_frequency
+from tumblemc.study.config import load_config
+from tumblemc.study.stepcfg import study_dt
+
+
+@pytest.mark.parametrize("preset", ["paper", "aluminum"])
+@pytest.mark.parametrize("shape", ["cuboid", "spiked", "spiked_ends", "curved"])
+@pytest.mark.parametrize("freq", [1.0, 10.0])
+def test_the_paper_points_keep_the_papers_step(shape: str, preset: str, freq: float) -> None:
+    ri = run_inputs(shape, preset, field_mT=20.0, freq_hz=freq)
+    assert ri.dt == CEILING_S and ri.dt_rule.startswith("ceiling")
+
+
+def test_each_rate_sets_the_step_it_needs() -> None:
+    # the field's period: 1000 steps per turn at 200 Hz
+    ri = run_inputs("cuboid", "paper", field=Rotating(20.0, 200.0), duration_s=0.01)
+    assert ri.dt == pytest.approx(1.0 / (STEPS_PER_PERIOD * 200.0)) and ri.dt_rule.startswith("field period")
+    # the natural frequency: aluminum at 100 mT, sqrt(|m||B| / I_min) against an independent eigenvalue
+    p = get_preset("aluminum")
+    inertia = get_shape("cuboid").inertia(p.mass)
+    wn = math.sqrt(p.V_m * p.magnetization * 0.1 / min(np.linalg.eigvalsh(inertia)))
+    assert natural_frequency(inertia, p.V_m * p.magnetization, 100.0) == pytest.approx(wn, rel=1e-12)
+    ri = run_inputs("cuboid", "aluminum", field_mT=100.0, duration_s=0.01)
+    k = math.ceil(CEILING_S * wn / TURN_PER_STEP)
+    assert ri.dt == pytest.approx(CEILING_S / k) and ri.dt * wn <= TURN_PER_STEP and ri.dt_rule.startswith("natural")
+    # the initial spin
+    ri = run_inputs("cuboid", "paper", omega0=(0.0, 0.0, 31000.0), duration_s=0.01)
+    assert ri.dt * 31000.0 <= TURN_PER_STEP < 2 * ri.dt * 31000.0 and ri.dt_rule.startswith("initial spin")
+    # a whole divisor of the ceiling, the given step wins
+    assert (CEILING_S / ri.dt) == pytest.approx(round(CEILING_S / ri.dt), abs=1e-9)
+    given = run_inputs("cuboid", "paper", field=Rotating(20.0, 200.0), duration_s=0.01, dt=2e-5)
+    assert given.dt == 2e-5 and given.dt_rule == "given"
+    # a static field has no period; a field program's fastest segment counts
+    assert default_step(inertia, 0.0, 0.0, [0.0]).dt == CEILING_S
+
+
+def test_the_run_reports_its_step_rule() -> None:
+    ds = tumblemc.simulate(field=Rotating(20.0, 200.0), duration_s=0.002)
+    assert ds.attrs["dt"] == pytest.approx(5e-6) and "1000 steps per turn at 200 Hz" in ds.attrs["dt_rule"]
+
+
+def test_a_study_takes_its_most_demanding_cells_step() -> None:
+    cfg = load_config("studies/smoke.toml")
+    assert study_dt(cfg) == CEILING_S
+    fast = load_config({**_smoke_dict(), "freq_hz": [1.0, 200.0]})
+    assert study_dt(fast) == pytest.approx(5e-6)
+    given = load_config({**_smoke_dict(), "freq_hz": [200.0], "dt": 2e-5})
+    assert study_dt(given) == 2e-5
+
+
+def _smoke_dict() -> dict:
+    return {
+        "name": "s",
+        "shapes": ["cuboid"],
+        "presets": ["aluminum"],
+        "incline_deg": [0.0],
+        "field_mT": 20.0,
+        "freq_hz": 1.0,
+        "samples": 2,
+        "seed": 1,
+    }
+
+
+# ---- the ledger's field work, against an independent account ------------------------------
+
+FREE_FLIGHT = {
+    "preset": "aluminum",
+    "field": Rotating(100.0, 200.0, axis=(1.0, 1.0, 1.0)),
+    "lift_m": 0.05,
+    "omega0": (3000.0, -2000.0, 1000.0),
+    "duration_s": 0.02,
+}
+
+
+def _independent_excess(ds) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """E(t) - E(0) + integral m . dB from the records alone.
+
+    The field interpolated linearly and the magnet's direction by slerp, 16 points per record interval.
+    """
+    eb = magnetisation_dir(float(ds.attrs["offset_deg"]), (1.0, 0.0, 0.0))
+    q, B, U = ds["quaternion"].values, ds["field"].values, ds["magnetic_energy"].values
+    m = quat_to_matrix(q) @ eb
+    k = float(np.dot(U, -np.einsum("ij,ij->i", m, B)) / np.dot(np.einsum("ij,ij->i", m, B), np.einsum("ij,ij->i", m, B)))
+    wf = np.zeros(len(q))
+    s = np.linspace(0.0, 1.0, 17)
+    for r in range(1, len(q)):
+        q0, q1 = q[r - 1], q[r] if np.dot(q[r - 1], q[r]) >= 0 else -q[r]
+        th = math.acos(min(1.0, float(np.dot(q0, q1))))
+        qs = (
+            np.outer(1 - s, q0) + np.outer(s, q1)
+            if th < 1e-12
+            else (np.outer(np.sin((1 - s) * th), q0) + np.outer(np.sin(s * th), q1)) / math.sin(th)
+        )
+        ms = quat_to_matrix(qs / np.linalg.norm(qs, axis=1)[:, None]) @ eb
+        Bs = B[r - 1] + np.outer(s, B[r] - B[r - 1])
+        wf[r] = wf[r - 1] - k * np.einsum("ij,ij->", 0.5 * (ms[1:] + ms[:-1]), np.diff(Bs, axis=0))
+    e = ds["kinetic_energy"].values + U + ds["potential_energy"].values
+    return e - e[0] - wf
+
+
+def test_the_energy_excess_is_the_energy_above_what_the_field_supplied() -> None:
+    """Free flight in a fast rotating field (no contact, no friction).
+
+    The ledger's excess is the mechanical energy above its start minus -integral m . dB, computed independently.
+    """
+    ds = tumblemc.simulate(dt=5e-5 / 4, **FREE_FLIGHT)  # type: ignore[arg-type]
+    mb = float(np.abs(ds["magnetic_energy"]).max())
+    ind = _independent_excess(ds)
+    led = ds["energy_excess"].values
+    assert np.abs(led - ind).max() <= 0.02 * np.abs(ind).max() + 1e-3 * mb
+    assert ds.attrs["energy_excess_J"] == pytest.approx(led.max(), rel=1e-9)
+    assert float(np.abs(ds["work_field"]).max()) > 0.01 * mb  # the field did work
+
+
+def test_the_excess_is_flagged_at_the_papers_step_and_not_at_a_converging_one() -> None:
+    """The two reproducers of issue 45: flagged at 5e-5 s given explicitly, ok at 5e-5 / 16."""
+    spin = {
+        "preset": "aluminum",
+        "field": Static(100.0, (0.0, 0.0, -1.0)),
+        "lift_m": 0.04,
+        "omega0": (6000.0, 3000.0, 1000.0),
+        "duration_s": 0.08,
+    }
+    for kw in ({**FREE_FLIGHT, "duration_s": 0.1}, spin):
+        coarse = tumblemc.simulate(dt=5e-5, **kw)  # type: ignore[arg-type]
+        fine = tumblemc.simulate(dt=5e-5 / 16, record_every=16, **kw)  # type: ignore[arg-type]
+        assert coarse.attrs["status"] == 4 and coarse.attrs["energy_excess_ratio"] > 0.05
+        assert fine.attrs["status"] == 0 and fine.attrs["energy_excess_ratio"] < 0.01
+        assert coarse.attrs["contact_gain_ratio"] < 1e-6  # no contact: the old account saw nothing
