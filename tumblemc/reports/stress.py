@@ -246,7 +246,8 @@ def write_report(
         lines.append(line)
         outside = outside_table(runs)
         if outside:
-            lines += ["", "Valid runs outside the dt tolerance, with the sensitivity twins' class (docs/studies.md, the dt check):", ""]
+            head = "Valid runs outside the dt tolerance, with the sensitivity twins' class (docs/guide/study_results.md, the dt check):"
+            lines += ["", head, ""]
             lines.append(_md_table(outside).rstrip("\n"))
     lines += ["", "![energy ledger and dt check](stress.png)", "", "### Runs that are not valid, by class", ""]
     classes: dict[str, int] = {}
