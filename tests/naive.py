@@ -176,7 +176,7 @@ def naive_model(z, sc, prm, ctype, cdata, pstart, mu_s=0.0) -> dict:  # type: ig
 
     # the magnetic torque: the end pose's weighted by P_TORQUE_END, the start's by the rest
     wend = prm[L.P_TORQUE_END]
-    torque = wend * np.cross(R @ e_b, sc[L.S_BEND : L.S_BEND + 3]) + (1.0 - wend) * sc[L.S_TM : L.S_TM + 3]
+    torque = wend * np.cross(R @ e_b, sc[L.S_B1 : L.S_B1 + 3]) + (1.0 - wend) * sc[L.S_TM : L.S_TM + 3]
 
     force_sum = np.zeros(3)
     moment_sum = np.zeros(3)

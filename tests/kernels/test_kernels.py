@@ -149,7 +149,7 @@ def make_problem(geom, seed, torque_end, theta, h, p_zero):  # type: ignore[no-u
     sc[L.S_H] = h
     sc[L.S_FEXT : L.S_FEXT + 3] = rng.normal(size=3)
     sc[L.S_TM : L.S_TM + 3] = rng.normal(size=3)
-    sc[L.S_BEND : L.S_BEND + 3] = rng.normal(size=3)
+    sc[L.S_B1 : L.S_B1 + 3] = rng.normal(size=3)
 
     n = n_unknowns(pstart)
     z = np.zeros(n)

@@ -37,7 +37,6 @@ from .layout import (
     P_TORQUE_END,
     S_B0,
     S_B1,
-    S_BEND,
     S_FEXT,
     S_H,
     S_TM,
@@ -63,17 +62,18 @@ def norm3(a):  # type: ignore[no-untyped-def]
 @jit
 def step_fields(prm, t, h, sc, tmp):  # type: ignore[no-untyped-def]
     """The field at both ends of the step, in torque units, into ``sc[S_B0:]`` and ``sc[S_B1:]``
-    (the ledger's field work; the torque's own terms are computed apart, as they always were)."""
+    (the end-of-step torque's field and the ledger's field work); the paper's field leaves its
+    unit direction at ``t`` in ``tmp`` (the start-of-step torque's, as it always was computed)."""
     if prm[P_FPROG] > 0.5:
-        program_field(prm, t, sc[S_B0 : S_B0 + 3])
         program_field(prm, t + h, sc[S_B1 : S_B1 + 3])
+        program_field(prm, t, sc[S_B0 : S_B0 + 3])
         return
-    field_dir(prm, t, tmp)
-    for i in range(3):
-        sc[S_B0 + i] = prm[P_TORQ] * tmp[i]
     field_dir(prm, t + h, tmp)
     for i in range(3):
         sc[S_B1 + i] = prm[P_TORQ] * tmp[i]
+    field_dir(prm, t, tmp)
+    for i in range(3):
+        sc[S_B0 + i] = prm[P_TORQ] * tmp[i]
 
 
 @jit
@@ -96,33 +96,22 @@ def prepare_step(state, t, h, prm, area_prev, touching_prev, scr):  # type: igno
     if prm[P_FIELD_ON] < 0.5:
         for i in range(3):
             sc[S_TM + i] = 0.0
-            sc[S_BEND + i] = 0.0
             sc[S_B0 + i] = 0.0
             sc[S_B1 + i] = 0.0
         return push
-    step_fields(prm, t, h, sc, tmp2)
-    wend = prm[P_TORQUE_END]  # the end-of-step torque's weight (residual.py)
-    if wend > 0.0:  # the residual forms (R+ e_b) x B(t + h) itself
-        if prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
-            program_field(prm, t + h, sc[S_BEND : S_BEND + 3])
-        else:
-            field_dir(prm, t + h, tmp2)
-            for i in range(3):
-                sc[S_BEND + i] = prm[P_TORQ] * tmp2[i]
-    if wend < 1.0:  # the torque at the start of the step: (R e_b) x B(t)
+    step_fields(prm, t, h, sc, tmp2)  # leaves the paper field's unit direction at t in tmp2
+    if prm[P_TORQUE_END] < 1.0:  # the torque at the start of the step: (R e_b) x B(t)
         quat_to_rot(state, 3, R, 0)
-        if prm[P_FPROG] > 0.5:
+        if prm[P_FPROG] > 0.5:  # a field program (kernels/field.py): V_m |E| B(t) directly
             for i in range(3):
                 tmp[i] = R[3 * i] * prm[P_EB] + R[3 * i + 1] * prm[P_EB + 1] + R[3 * i + 2] * prm[P_EB + 2]
-            program_field(prm, t, tmp2)
-            cross(tmp, 0, tmp2, 0, sc, S_TM)
+            cross(tmp, 0, sc, S_B0, sc, S_TM)
         else:
             for i in range(3):
                 acc = 0.0
                 for j in range(3):
                     acc += R[3 * i + j] * prm[P_EB + j]
                 tmp[i] = acc
-            field_dir(prm, t, tmp2)
             cross(tmp, 0, tmp2, 0, sc, S_TM)
             for i in range(3):
                 sc[S_TM + i] *= prm[P_TORQ]

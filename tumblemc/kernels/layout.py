@@ -61,10 +61,9 @@ S_W = 10  # angular velocity (world) at the start (3)
 S_H = 13  # step length
 S_FEXT = 14  # applied force: gravity + electrostatic + adhesion (3)
 S_TM = 17  # magnetic torque when evaluated at the start of the step (3)
-S_BEND = 20  # P_TORQ * unit field at the end of the step, for torque="end" (3)
-S_B0 = 23  # the field at the start of the step, in torque units (P_TORQ * unit field, or V_m |E| B(t)) (3)
-S_B1 = 26  # the same at the end of the step (3); the ledger's field work
-N_SC = 29
+S_B0 = 20  # the field at the start of the step, in torque units (P_TORQ * unit field, or V_m |E| B(t)) (3)
+S_B1 = 23  # the same at the end of the step (3): the end-of-step torque's field and the ledger's field work
+N_SC = 26
 
 # ---- contact block of one convex piece ---------------------------------------------
 B_A1 = 0

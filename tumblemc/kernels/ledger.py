@@ -82,7 +82,6 @@ from .layout import (
     P_TORQUE_END,
     S_B0,
     S_B1,
-    S_BEND,
     S_TM,
 )
 
@@ -164,9 +163,9 @@ def ledger_step(state, z, hc, qs, flight, touching_prev, area_prev, prm, pstart,
     if wend > 0.0:
         for i in range(3):
             lw[9 + i] = lw[3 * i] * prm[P_EB] + lw[3 * i + 1] * prm[P_EB + 1] + lw[3 * i + 2] * prm[P_EB + 2]
-        t0 = lw[10] * sc[S_BEND + 2] - lw[11] * sc[S_BEND + 1]
-        t1 = lw[11] * sc[S_BEND] - lw[9] * sc[S_BEND + 2]
-        t2 = lw[9] * sc[S_BEND + 1] - lw[10] * sc[S_BEND]
+        t0 = lw[10] * sc[S_B1 + 2] - lw[11] * sc[S_B1 + 1]
+        t1 = lw[11] * sc[S_B1] - lw[9] * sc[S_B1 + 2]
+        t2 = lw[9] * sc[S_B1 + 1] - lw[10] * sc[S_B1]
         if wend < 1.0:
             t0 = wend * t0 + (1.0 - wend) * sc[S_TM]
             t1 = wend * t1 + (1.0 - wend) * sc[S_TM + 1]

@@ -62,7 +62,7 @@ from .layout import (
     P_ROT_PAPER,
     P_T,
     P_TORQUE_END,
-    S_BEND,
+    S_B1,
     S_FEXT,
     S_H,
     S_Q,
@@ -305,7 +305,7 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
             for j in range(3):
                 acc += s[RS_R + 3 * i + j] * prm[P_EB + j]
             s[RS_MW + i] = acc
-        cross(s, RS_MW, sc, S_BEND, s, RS_V2)
+        cross(s, RS_MW, sc, S_B1, s, RS_V2)
         if wend == 1.0:
             for i in range(3):
                 F[3 + i] -= s[RS_V2 + i]
@@ -343,7 +343,7 @@ def residual(z, prob, F, J, work, want_J, mu_s=0.0):  # type: ignore[no-untyped-
                 s[RS_M3 + i] = (s[RS_M3 + i] - s[RS_M1 + i]) / h
         if torque_end:
             # T = mw x B, d mw = -[mw]x dtheta -> dT = [B]x [mw]x dtheta
-            skew(sc, S_BEND, s, RS_M1)
+            skew(sc, S_B1, s, RS_M1)
             skew(s, RS_MW, s, RS_M2)
             _mm(s, RS_M1, RS_M2, RS_HL)
             for i in range(9):
