@@ -31,7 +31,7 @@ import tumblemc
 from tumblemc.io import open_result, result_attrs
 from tumblemc.model.rows import RunRow
 from tumblemc.study.config import StudyConfig, load_config
-from tumblemc.study.design import design, run_kwargs, study_dt
+from tumblemc.study.design import design, run_kwargs
 from tumblemc.study.twins import twin_row
 
 
@@ -62,10 +62,10 @@ def ladder(path: str | Path, runs: Sequence[int], factors: Sequence[int], param:
     if cfg.mode != "grid":
         raise SystemExit(f"{path} is a {cfg.mode} study: its runs have no single incline to simulate again")
     des = design(cfg)
-    dt = study_dt(cfg)
     jobs, rows = [], []
     for r in runs:
         kw = run_kwargs(cfg, des.isel(run=int(r)))
+        dt = float(kw["dt"])  # the run's cell's step
         jobs += [(kw, dt / f, "", 0.0, 0.0) for f in factors] + [(kw, dt, param, s, rel) for s in (1.0, -1.0)]
         rows.append({"run": int(r), "cell": f"{kw['shape']}, {kw['preset']}, {kw.get('incline_deg', 0.0):g} deg, {kw['freq_hz']:g} Hz"})
     if workers <= 1:

@@ -11,10 +11,12 @@ import tumblemc
 from tumblemc.model.fields import Rotating, Static
 from tumblemc.model.frames import quat_to_matrix
 from tumblemc.model.params import get_preset, magnetisation_dir
+from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.model.run import run_inputs
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.step_size import CEILING_S, STEPS_PER_PERIOD, TURN_PER_STEP, default_step, natural_frequency
 from tumblemc.study.config import load_config
+from tumblemc.study.design import batch_row, design, design_values, grid_of, run_kwargs
 from tumblemc.study.stepcfg import study_dt
 
 
@@ -54,13 +56,40 @@ def test_the_run_reports_its_step_rule() -> None:
     assert ds.attrs["dt"] == pytest.approx(5e-6) and "1000 steps per turn at 200 Hz" in ds.attrs["dt_rule"]
 
 
-def test_a_study_takes_its_most_demanding_cells_step() -> None:
+def test_each_cell_of_a_study_runs_at_its_own_step() -> None:
     cfg = load_config("studies/smoke.toml")
     assert study_dt(cfg) == CEILING_S
-    fast = load_config({**_smoke_dict(), "freq_hz": [1.0, 200.0]})
-    assert study_dt(fast) == pytest.approx(5e-6)
+    assert set(design(cfg)["dt"].values) == {CEILING_S}
+    fast = load_config({**_smoke_dict(), "freq_hz": [1.0, 200.0], "field_mT": [20.0, 100.0]})
+    des = design(fast)
+    # each cell its own default: the field period at 200 Hz, the magnet at 100 mT, the ceiling at 20 mT, 1 Hz
+    for i in range(des.sizes["run"]):
+        r = des.isel(run=i)
+        kw = run_kwargs(fast, r)
+        alone = run_inputs("cuboid", "aluminum", field_mT=float(r["field_mT"]), freq_hz=float(r["freq_hz"]), duration_s=0.01)
+        assert float(r["dt"]) == kw["dt"] == alone.dt
+    assert len(set(des["dt"].values)) == 3 and study_dt(fast) == min(des["dt"].values)
+    # the rows the engine simulates carry that step; the check's grid divides it
+    rows = [batch_row(fast, row) for row in design_values(fast, des, range(des.sizes["run"]))]
+    assert [r["dt"] for r in rows] == list(des["dt"].values)
+    assert grid_of(fast).refine == 1 and grid_of(fast, fine=True).refine == fast.check.dt_factor
     given = load_config({**_smoke_dict(), "freq_hz": [200.0], "dt": 2e-5})
-    assert study_dt(given) == 2e-5
+    assert study_dt(given) == 2e-5 and set(design(given)["dt"].values) == {2e-5}
+    # a threshold study searching the field: one step per robot, the strongest field's
+    thr = load_config({**_smoke_dict(), "mode": "threshold", "threshold_axis": "field_mT", "field_mT": [20.0, 100.0]})
+    assert set(design(thr)["dt"].values) == {study_dt(thr)} and study_dt(thr) < CEILING_S
+
+
+def test_the_fine_grid_divides_each_rows_step() -> None:
+    rows = [{"preset": "paper", "freq_hz": 200.0, "dt": 1e-5}, {"preset": "paper", "freq_hz": 200.0, "dt": 2e-5}]
+    coarse = simulate_rows("cuboid", rows, TimeGrid(periods=0.2, transient_periods=0.1))
+    fine = simulate_rows("cuboid", [{**r, "dt": r["dt"] / 4} for r in rows], TimeGrid(periods=0.2, transient_periods=0.1))
+    refined = simulate_rows("cuboid", rows, TimeGrid(periods=0.2, transient_periods=0.1, refine=4))
+    assert not np.array_equal(coarse["progress_ratio"], refined["progress_ratio"])
+    for k in ("progress_ratio", "status", "newton_iterations"):
+        np.testing.assert_array_equal(fine[k], refined[k])
+    # a refined grid without a step: the row is recorded as not run, with the reason
+    assert "needs a step" in simulate_rows("cuboid", [{"preset": "paper"}], TimeGrid(refine=2))["error"][0]
 
 
 def _smoke_dict() -> dict:

@@ -203,7 +203,7 @@ def test_defaults() -> None:
     assert c.execution.batch_size == 8
     assert {u.param: u.to_dict() for u in c.uncertain} == DEFAULT_UNCERTAIN
     assert cfg(uncertain={}).uncertain == ()
-    assert design(cfg(uncertain={})).data_vars.keys() == {"check_flag"}
+    assert design(cfg(uncertain={})).data_vars.keys() == {"check_flag", "dt"}
 
 
 def test_incline_range_is_inclusive_and_canonical() -> None:

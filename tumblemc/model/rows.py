@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypedDict
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -59,6 +59,7 @@ class RunRow(TypedDict, total=False):
     peel_length: float
     adhesion_release: str
     field: Rotating
+    dt: float  # s; the grid's ``dt`` when absent
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,8 @@ class TimeGrid:
 
     periods : duration in field periods; transient_periods : periods skipped before the
     speed is measured (as :func:`tumblemc.summarize`); dt : s (None: the default);
-    torque : ``"start"`` or ``"end"``; success_ratio : progress-ratio threshold of
+    refine : every run's step (its row's ``dt``, else ``dt``) divided by this whole number (a
+    study's numerical check; a step is needed then); torque : ``"start"`` or ``"end"``; success_ratio : progress-ratio threshold of
     ``climbed``; max_failed_steps : stop a run after that many failed steps (0: never);
     its outcome is then NaN with status ``failed_steps``; early_decision : stop a run once
     its verdict can only be failure (:mod:`tumblemc.kernels.decide`): ``decided_early`` is
@@ -78,6 +80,7 @@ class TimeGrid:
     periods: float = 2.0
     transient_periods: float = 1.0
     dt: float | None = None
+    refine: int = 1
     torque: str = "start"
     rotation: str = "momentum"
     success_ratio: float = 0.5
@@ -100,8 +103,8 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid, fu
         Shared by every row.
     rows : sequence of RunRow
         Keyword arguments of :func:`tumblemc.simulate` per run: ``preset``,
-        ``incline_deg``, ``field_mT``, ``freq_hz`` and any parameter overrides. Rows that
-        share ``freq_hz`` share the time grid; rows are grouped by it internally.
+        ``incline_deg``, ``field_mT``, ``freq_hz``, any parameter overrides and ``dt``. Rows
+        with the same number of steps share a batch; rows are grouped by it internally.
     grid : TimeGrid
     full : sequence of bool, optional
         Rows simulated to the end even with ``grid.early_decision`` (the audited ones: a
@@ -137,16 +140,22 @@ def simulate_rows(shape: str | Shape, rows: Sequence[RunRow], grid: TimeGrid, fu
     solver = SolverOptions(max_failed_steps=grid.max_failed_steps)
     for i, row in enumerate(rows):
         try:  # the run's inputs are validated here, once (run_inputs), and trusted after
+            kw: dict[str, Any] = dict(row)
+            dt = kw.pop("dt", grid.dt)
+            if grid.refine != 1:
+                if dt is None:
+                    raise ValueError(f"TimeGrid.refine={grid.refine!r} needs a step (allowed: a dt in the grid or the row)")
+                dt = dt / grid.refine
             spec = prepare(
                 run_inputs(
                     shp,
                     periods=grid.periods,
-                    dt=grid.dt,
+                    dt=dt,
                     torque=grid.torque,
                     rotation=grid.rotation,
                     solver=solver,
                     max_record_bytes=math.inf,  # the kernel records the measured rows only (the study budget bounds them)
-                    **row,
+                    **kw,
                 )
             )
         except (ValueError, TypeError) as exc:

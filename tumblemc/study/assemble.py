@@ -25,7 +25,8 @@ from tumblemc.schema import (
     STUDY_FILE_ATTRS,
 )
 from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig
-from tumblemc.study.design import check_inclines, study_dt
+from tumblemc.study.design import check_inclines
+from tumblemc.study.stepcfg import study_dt
 from tumblemc.version import __version__, build_info
 
 

@@ -17,7 +17,7 @@ from tumblemc.kernels.stepper import n_records
 from tumblemc.model.params import RANGES
 from tumblemc.model.rows import record_stride
 from tumblemc.study.checks import config_error
-from tumblemc.study.stepcfg import study_dt
+from tumblemc.study.stepcfg import cell_dt
 
 #: defaults of the ``[execution]`` bounds: about 100x the default study's 20,800 runs (its
 #: design table then takes a few hundred MB), 2,500x the steps of its runs (2 s at 5e-5 s:
@@ -48,11 +48,11 @@ def check_budget(cfg: Any) -> None:
             f"gives {n:,} runs ({n // cfg.samples:,} cells x {cfg.samples:,} samples)",
             f"at most {ex.max_runs:,} runs in all; fewer samples or cells, or raise [execution] max_runs",
         )
-    dt = study_dt(cfg)
     key = "dt" if cfg.dt is not None else "periods"
-    for fine in (False, True):
-        h = dt / cfg.check.dt_factor if fine else dt
-        for f in cfg.freq_hz:
+    for f in cfg.freq_hz:  # the finest cell step at each frequency (the strongest field)
+        dt = min(cell_dt(cfg, shape, sub, None, f) for shape in cfg.shapes for sub in cfg.presets)
+        for fine in (False, True):
+            h = dt / cfg.check.dt_factor if fine else dt
             steps = round(cfg.periods / f / h)
             what = f"at freq_hz = {f:g}" + (f" and the check's dt / {cfg.check.dt_factor}" if fine else "")
             if steps > ex.max_steps_per_run:

@@ -36,8 +36,8 @@ freq_hz*             number or list, Hz, in (0, 10000]
 periods              simulated field periods, >= 2 (default 2)
 transient_periods    periods discarded before measuring (default 1); at least one period
                      must remain (``transient_periods <= periods - 1``)
-dt                   time step, s (default: the simulator's default step of the most
-                     demanding cell, model/step_size.py; 5e-5 s at the paper's fields)
+dt                   time step, s (default: each cell's default step from its nominal field,
+                     frequency and preset, model/step_size.py; 5e-5 s at the paper's)
 torque               ``"start"`` (default), ``"end"`` or ``"mid"`` (their mean)
 rotation             ``"momentum"`` (default), ``"paper"`` or ``"midpoint"`` (docs/guide/runs.md)
 success_ratio        progress ratio at or above which a run "climbed" (default 0.5)

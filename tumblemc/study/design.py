@@ -45,7 +45,7 @@ from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig, cells
 from tumblemc.study.distributions import POSTERIOR_SLOT, U_EPS, UNCERTAIN_PARAMS, ParamDistribution, mc_slot, nominal_value
 from tumblemc.study.fieldcfg import AXIS_ERRORS, program
 from tumblemc.study.identity import config_hash, config_to_json
-from tumblemc.study.stepcfg import study_dt
+from tumblemc.study.stepcfg import row_dt
 
 
 def _canonical_cell(cell: Mapping[str, Any]) -> str:
@@ -192,6 +192,8 @@ def design(config: StudyConfig) -> xr.Dataset:
             r = RANGES[name]
             long = f"sampled {r.long_name} (posterior {post.sha256[:12]})"
             data[sampled_name(name)] = (run, pvals[j], {"units": r.units, "long_name": long})
+    dts = [row_dt(config, c) for c in cl]
+    data["dt"] = (run, np.repeat(np.asarray(dts, dtype=float), n), {"units": "s", "long_name": "time step of the run (its cell's)"})
     data["check_flag"] = (
         run,
         check_mask(config, keys),
@@ -237,7 +239,7 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRo
     """The keywords of one run that differ from run to run (a row of :func:`tumblemc.model.rows.simulate_rows`).
 
     Preset, incline, field (the sampled one if ``field_mT`` is uncertain), frequency and
-    :func:`params_for_run`.
+    :func:`params_for_run`, and the cell's time step (:func:`tumblemc.study.stepcfg.row_dt`).
     """
     field_name = sampled_name("field_mT") if "field_mT" in config.uncertain_names else "field_mT"
     out: dict[str, Any] = {"preset": str(_scalar(row, "substrate"))}
@@ -251,6 +253,7 @@ def batch_row(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> RunRo
         out["field_mT"], out["freq_hz"] = mT, hz
     else:
         out["field"] = prog
+    out["dt"] = row_dt(config, row)
     return cast(RunRow, {**out, **params_for_run(config, row)})
 
 
@@ -260,7 +263,7 @@ def design_values(config: StudyConfig, des: xr.Dataset, idx: Any, **fixed: float
     ``fixed``: values set in every row (a threshold study's axis value, which its run table
     does not hold).
     """
-    names = ["substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in config.uncertain_names)]
+    names = ["shape", "substrate", "incline_deg", "field_mT", "freq_hz", *(sampled_name(k) for k in config.uncertain_names)]
     cols = {k: des[k].values for k in names if k in des.variables}
     return [{**{k: v[i] for k, v in cols.items()}, **fixed} for i in idx]
 
@@ -268,15 +271,15 @@ def design_values(config: StudyConfig, des: xr.Dataset, idx: Any, **fixed: float
 def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict[str, Any]:
     """Every keyword of ``tumblemc.simulate`` for one run.
 
-    :func:`batch_row` plus the shape and the time grid (duration in field periods, dt,
-    torque, rotation): the duration in seconds is computed once, by ``run_inputs``.
+    :func:`batch_row` (with the cell's dt) plus the shape and the time grid (duration in
+    field periods, torque, rotation): the duration in seconds is computed once, by
+    ``run_inputs``.
     """
     b = batch_row(config, row)
     return {
         "shape": str(_scalar(row, "shape")),
         **b,
         "periods": config.periods,
-        "dt": study_dt(config),
         "torque": config.torque,
         "rotation": config.rotation,
     }
@@ -285,19 +288,19 @@ def run_kwargs(config: StudyConfig, row: Mapping[str, Any] | xr.Dataset) -> dict
 def grid_of(cfg: StudyConfig, fine: bool = False) -> TimeGrid:
     """The study's time grid of every run (``fine``: at ``dt / [check].dt_factor``, for the numerical check).
 
+    Each run's step is its cell's (:func:`batch_row` puts it in the row); the fine grid
+    divides it by ``dt_factor``.
+
     A run stops at its first failed step (``max_failed_steps=1``), and once its verdict
     can only be failure when ``cfg.early_decision`` (grid and threshold modes, where the
     check runs audit the bound; not at the finer dt).
     """
-    dt = study_dt(cfg)
-    if fine:
-        dt = dt / cfg.check.dt_factor
     # a run with a failed step is invalid in a study (status failed_steps): stop it there
     # instead of finishing it at the smallest sub-step
     return TimeGrid(
         periods=cfg.periods,
         transient_periods=cfg.transient_periods,
-        dt=dt,
+        refine=cfg.check.dt_factor if fine else 1,
         torque=cfg.torque,
         rotation=cfg.rotation,
         success_ratio=cfg.success_ratio,

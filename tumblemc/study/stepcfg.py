@@ -1,34 +1,58 @@
-"""The time step of a study: its config's ``dt``, or the simulator's default for its cells."""
+"""The time step of a study's cells: its config's ``dt``, or the simulator's default per cell."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from tumblemc.model.params import get_preset
-from tumblemc.model.run import DEFAULT_DT
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.step_size import default_step
 
 
-def study_dt(cfg: Any) -> float:
-    """The time step of a study (a ``StudyConfig``; this module sits below the config's), s.
+def cell_dt(cfg: Any, shape: str, substrate: str, field_mT: float | None = None, freq_hz: float | None = None) -> float:
+    """The time step of one cell of a study (a ``StudyConfig``; this module sits below the config's), s.
 
     ``dt`` of the config, or the simulator's default step (:mod:`tumblemc.model.step_size`)
-    of its most demanding cell (the fastest field, the strongest field with its bias, the
-    preset magnet with the fastest natural frequency), so that every cell of the study
-    shares one time grid.
+    of the cell: its shape, the substrate preset's nominal magnet and mass, its nominal
+    field (plus the field's bias) and its frequency. ``field_mT`` or ``freq_hz`` None: the
+    study's most demanding value of that axis (a threshold study searching it, or a cell
+    without it), so that one robot's runs along a searched axis share one step. The
+    sampled parameters (magnetisation, mass) do not enter: every run of a cell shares the
+    cell's step, and the check re-simulates it at ``dt / dt_factor``.
     """
     if cfg.dt is not None:
         return float(cfg.dt)
     bias = float(np.linalg.norm(cfg.field.bias_mT))
-    steps = [
-        default_step(get_shape(shape).inertia(p.mass), p.V_m * p.magnetization, max(cfg.field_mT) + bias, cfg.freq_hz).dt
-        for shape in cfg.shapes
-        for p in (get_preset(name) for name in cfg.presets)
-    ]
-    return float(min(steps, default=DEFAULT_DT))
+    p = get_preset(substrate)
+    mT = max(cfg.field_mT) if field_mT is None else float(field_mT)
+    hz = list(cfg.freq_hz) if freq_hz is None else [float(freq_hz)]
+    return float(default_step(get_shape(shape).inertia(p.mass), p.V_m * p.magnetization, mT + bias, hz).dt)
 
 
-__all__ = ["study_dt"]
+def row_dt(cfg: Any, row: Mapping[str, Any] | Any) -> float:
+    """:func:`cell_dt` of a run-table row (``shape``, ``substrate``, nominal ``field_mT``, ``freq_hz``).
+
+    A threshold study's searched axis, and a dimension the row does not hold, count at the
+    study's most demanding value.
+    """
+    searched = cfg.threshold_axis if cfg.mode == "threshold" else None
+    vals = {k: (None if k == searched or k not in row else float(np.asarray(row[k]).item())) for k in ("field_mT", "freq_hz")}
+    return cell_dt(cfg, str(np.asarray(row["shape"]).item()), str(np.asarray(row["substrate"]).item()), **vals)
+
+
+def study_dt(cfg: Any) -> float:
+    """The smallest time step of a study's cells, s (``dt`` of the config when given).
+
+    The step of the most demanding cell (:func:`cell_dt` over every shape and substrate at
+    the strongest field and the fastest frequency): the per-run budget's bound and the
+    step the file attributes quote; each cell runs at its own :func:`cell_dt`.
+    """
+    if cfg.dt is not None:
+        return float(cfg.dt)
+    return min(cell_dt(cfg, shape, sub) for shape in cfg.shapes for sub in cfg.presets)
+
+
+__all__ = ["cell_dt", "row_dt", "study_dt"]

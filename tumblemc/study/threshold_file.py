@@ -18,8 +18,8 @@ import xarray as xr
 from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.schema import CHECK_FLAG_ATTRS, COORD_ATTRS, CRITICAL_ATTRS, OUTCOME_ATTRS, STATUS_FLAGS
 from tumblemc.study.config import StudyConfig
-from tumblemc.study.design import study_dt
 from tumblemc.study.modes import THRESHOLD_AXES
+from tumblemc.study.stepcfg import study_dt
 from tumblemc.study.threshold import THRESHOLD_OUTCOMES, difficulty_order, direct_passes, implied_verdicts
 
 _YES_NO = {"flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "no yes"}
