@@ -183,3 +183,30 @@ def test_study_run_refuses_a_changed_config_before_compiling(tmp_path, capsys, m
     assert err.startswith("error:") and err.count("\n") == 1  # no header, no "compiling": one line
     assert "different config" in err and "--fresh" in err
     assert json.loads((parts / "study.json").read_text())["config_hash"] == "0" * 64  # nothing overwritten
+
+
+@pytest.mark.parametrize("cached", [True, False])
+def test_the_kernel_step_says_whether_it_loads_or_compiles_and_ticks(
+    cached: bool, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import time
+
+    from tumblemc.cli.common import warm_kernels_saying
+    from tumblemc.study import cluster
+
+    monkeypatch.setattr(cluster, "kernels_cached", lambda: cached)
+    monkeypatch.setattr(cluster, "warm_kernels", lambda: time.sleep(0.35) or 0.35)
+    assert warm_kernels_saying(True, tick_s=0.1) == 0.35
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith("loading the compiled kernels from the cache" if cached else "compiling the kernels (about")
+    ticks = [line for line in err if line.startswith("  still")]
+    assert len(ticks) >= 2 and all(("loading" if cached else "compiling") in t for t in ticks)
+    assert err[-1].startswith("kernels ready in")
+    assert warm_kernels_saying(False) == 0.35 and capsys.readouterr().err == ""
+
+
+def test_kernels_cached_reads_numbas_index() -> None:
+    from tumblemc.study.cluster import kernels_cached, warm_kernels
+
+    warm_kernels()
+    assert kernels_cached() is True

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
+import threading
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -153,3 +156,47 @@ def write_dataset(ds: Any, args: argparse.Namespace) -> int:
         if (plot_calibration(ds, png) if "test" in ds.attrs else plot_lab(ds, png)) is not None:
             print(f"wrote {png}")
     return 0
+
+
+#: what a cold compile costs, said before it starts (measured: docs/notes/performance.md, "Compile")
+COMPILE_ESTIMATE = "about 3 minutes on 2 idle cores, longer on a loaded machine; once per install"
+
+
+def warm_kernels_saying(say: bool = True, tick_s: float | None = None) -> float:
+    """Compile or load the kernels (:func:`tumblemc.study.cluster.warm_kernels`), saying which and the time elapsed.
+
+    On stderr: one line that says whether the kernels are loaded from Numba's cache or
+    compiled (with :data:`COMPILE_ESTIMATE`), then the elapsed seconds, updated in place
+    each second on a terminal and on a new line every 10 s in a log (``tick_s`` overrides
+    the interval), and the time it took. Returns the seconds taken.
+    """
+    from tumblemc.study.cluster import kernels_cached, warm_kernels
+
+    if not say:
+        return warm_kernels()
+    cached = kernels_cached()
+    what = "loading the compiled kernels from the cache" if cached else f"compiling the kernels ({COMPILE_ESTIMATE})"
+    tty = sys.stderr.isatty()
+    print(what + " ...", end="" if tty else "\n", file=sys.stderr, flush=True)
+    done = threading.Event()
+    t0 = time.perf_counter()
+
+    def tick() -> None:
+        every = tick_s or (1.0 if tty else 10.0)
+        while not done.wait(every):
+            s = time.perf_counter() - t0
+            if tty:
+                print(f"\r{what} ... {s:.0f} s", end="", file=sys.stderr, flush=True)
+            else:
+                print(f"  still {'loading' if cached else 'compiling'}: {s:.0f} s", file=sys.stderr, flush=True)
+
+    ticker = threading.Thread(target=tick, daemon=True)
+    ticker.start()
+    try:
+        took = warm_kernels()
+    finally:
+        done.set()
+        ticker.join()
+    took_s = f"{time.perf_counter() - t0:.0f} s"
+    print(f"\r{what} ... ready in {took_s}" if tty else f"kernels ready in {took_s}", file=sys.stderr, flush=True)
+    return took

@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tumblemc.cli.common import warm_kernels_saying
+
 
 def register(sub: Any) -> None:
     """Add ``design`` and its actions to the ``tumblemc`` parser."""
@@ -63,8 +65,8 @@ def _run(args: Any) -> int:
     )
     from tumblemc.study.cluster import command_client
 
-    if not args.scheduler and args.workers != 0:
-        print("compiling kernels (or loading them from the cache) and starting the workers ...", file=sys.stderr, flush=True)
+    if not args.scheduler:  # a remote cluster's workers compile their own
+        warm_kernels_saying(not args.no_progress)
     try:
         with command_client(args.scheduler, args.workers) as client:
             search(cfg, out, client, fresh=args.fresh, progress=not args.no_progress)

@@ -10,14 +10,13 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from tumblemc.cli.common import UsageError, format_table
+from tumblemc.cli.common import UsageError, format_table, warm_kernels_saying
 
 #: wall time of one simulated second of one run on one core, s (measured on this project's
 #: 2-core machine: the default study, 20,800 runs of 2 s and 416 check runs at dt/4, in
@@ -202,7 +201,7 @@ def _run(args: argparse.Namespace) -> int:
     from tumblemc.io import StudyLock
     from tumblemc.study.cluster import command_client
     from tumblemc.study.config import load_config
-    from tumblemc.study.engine import default_output, run_study, study_status, warm_kernels
+    from tumblemc.study.engine import default_output, run_study, study_status
 
     cfg = load_config(args.config)
     path = Path(args.out) if args.out else default_output(cfg)
@@ -222,12 +221,7 @@ def _run(args: argparse.Namespace) -> int:
             print(study_header(cfg, path, where), file=sys.stderr, flush=True)
         try:
             if not args.scheduler:  # a remote cluster's workers compile their own
-                if say:
-                    print("compiling kernels (first run only; about a minute on a cold cache) ...", end="", file=sys.stderr, flush=True)
-                t0 = time.perf_counter()
-                warm_kernels()  # the local cluster's workers then load them from the cache
-                if say:
-                    print(f" ready in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+                warm_kernels_saying(say)  # the local cluster's workers then load them from the cache
             with command_client(args.scheduler, workers, args.dashboard) as client:
                 if client is not None and args.dashboard and not args.scheduler:
                     print(f"dask dashboard: {client.dashboard_link}" + _bokeh_note(), file=sys.stderr, flush=True)

@@ -23,6 +23,20 @@ def warm_kernels() -> float:
     return time.perf_counter() - t0
 
 
+def kernels_cached() -> bool:
+    """Whether Numba's cache holds the batch kernel compiled from these sources.
+
+    True: :func:`warm_kernels` loads it in seconds; False: it compiles (minutes on a cold
+    cache). Reads Numba's cache index (a private API: False when it cannot be read).
+    """
+    from tumblemc.kernels.batch import run_batch
+
+    try:
+        return bool(run_batch._cache._cache_file._load_index())
+    except Exception:  # noqa: BLE001 -- any failure to read it means: not known to be cached
+        return False
+
+
 def local_client(workers: int | None = None, dashboard: bool = False) -> Any:
     """A ``dask.distributed`` client on an embedded LocalCluster.
 
