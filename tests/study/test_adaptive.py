@@ -21,6 +21,7 @@ from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import cells, load_config
 from tumblemc.study.engine import run_study, study_status
 from tumblemc.study.identity import config_hash, identity_json
+from tumblemc.study.partial import partial_result
 
 
 def _slow_marginal(k: int, n: int, mixture: str) -> float:
@@ -226,6 +227,9 @@ def test_interrupted_adaptive_study_resumes_to_the_same_file(
     toml.write_text(_to_toml(tiny(**ADAPT)))
     st = study_status(toml, out)
     assert st["state"] == "partial" and st["done"] == calls["runs"] > 20 and st["total"] == 64 and st["total_is_cap"]
+    assert study_status(out) == st and "(of up to 16 each;" in st["cells"]  # from the result path: the config in the shards
+    runs, maps, note = partial_result(out)  # what `study plot` draws: the runs done, in their cells
+    assert int(maps["n_runs"].sum()) == runs.sizes["run"] == st["done"] and note.startswith(f"partial: {st['done']} of up to 64 runs")
     run_study(tiny(**ADAPT), out=out, progress=False, batch_size=3)
     assert_same_result(fixed_and_adaptive[1], out)
 

@@ -1,6 +1,7 @@
-"""The numerical checks of a study in numbers and words.
+"""The numerical checks of a study in numbers and words, and what an incline's sign means.
 
-:func:`check_summary` (the dt-check subset), :func:`early_words` and :func:`check_words`.
+:func:`check_summary` (the dt-check subset), :func:`early_words` and :func:`check_words`;
+:func:`incline_words` and :func:`verdict_name` for a negative (downhill) incline.
 
 Split from :mod:`tumblemc.analysis.maps`; ``study status``, ``study plot`` and the figures'
 footnotes use them.
@@ -14,6 +15,27 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.maps import decided_early_mask
+
+
+def verdict_name(incline_deg: float) -> str:
+    """The name of the success verdict at ``incline_deg``: "climbed", or "descended" on a downhill slope.
+
+    The substrate is tilted by the incline about world x and the field drives the robot along
+    the plane's direction ``u = (0, -cos θ, sin θ)`` (docs/guide/model.md, Frames): uphill for
+    θ > 0, downhill for θ < 0. The verdict itself (progress ratio at least the success ratio,
+    a valid run) is the same either way.
+    """
+    return "descended" if incline_deg < 0 else "climbed"
+
+
+def incline_words(incline_deg: float) -> str | None:
+    """A sentence for a negative incline (the robot tumbles down the slope), or None for θ >= 0."""
+    if not incline_deg < 0:
+        return None
+    return (
+        f"incline {incline_deg:g} deg: a downhill slope of {-incline_deg:g} deg (the field drives the robot down it); "
+        "speed and progress are measured downhill"
+    )
 
 
 def check_summary(runs: xr.Dataset) -> dict[str, Any]:

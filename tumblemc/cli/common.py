@@ -72,11 +72,14 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, Any]:
     return out
 
 
-#: units of the run summary (:func:`tumblemc.summarize`) as the CLI prints it; names not
-#: listed are counts or ratios
+#: units of the run summary (:func:`tumblemc.summarize`) as the CLI prints it (a ratio
+#: names what it is a fraction of); names not listed are counts, flags or the status code
 SUMMARY_UNITS = {
     "mean_speed": "m/s",
     "ideal_speed": "m/s",
+    "progress_ratio": "x ideal_speed",
+    "energy_gain_ratio": "x the run's energy scale",
+    "mean_newton_iterations": "per step",
     "max_penetration": "m",
     "mean_slip_speed": "m/s",
     "energy_gain_J": "J",
@@ -102,6 +105,26 @@ def format_table(d: dict[str, Any], units: dict[str, str] | None = None) -> str:
         unit = (units or {}).get(k)
         lines.append(f"{k:<{width}}  {text}" + (f" {unit}" if unit else ""))
     return "\n".join(lines)
+
+
+#: how a netCDF ``units`` attribute reads in a printed column header
+_UNIT_TEXT = {"mm s-1": "mm/s", "m s-1": "m/s", "degree": "deg"}
+
+
+def labelled_table(ds: Any, cols: Sequence[str]) -> str:
+    """A protocol's variables ``cols`` along its one dimension as a table whose headers carry units.
+
+    A header gets ``(unit)`` from the variable's ``units`` unless its name already ends
+    with it (``tilt_deg``) or it is dimensionless; NaN prints as ``-``.
+    """
+    df = ds[list(cols)].to_dataframe()[list(cols)].round(3)
+    names = {}
+    for c in [*cols, *df.index.names]:
+        unit = _UNIT_TEXT.get(str(ds[c].attrs.get("units", "1")), str(ds[c].attrs.get("units", "1")))
+        names[c] = c if unit == "1" or c.endswith(("_deg", "_mT", "_hz", "_Hz", "_s")) else f"{c} ({unit})"
+    df = df.rename(columns=names)
+    df.index.names = [names[str(n)] for n in df.index.names]
+    return str(df.to_string(na_rep="-"))
 
 
 def parse_values(name: str, text: str) -> list[float]:

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tumblemc.analysis.words import incline_words, verdict_name
 from tumblemc.cli.common import (
     EXIT_OK,
     EXIT_RUN_FAILED,
@@ -30,7 +31,7 @@ def register(sub: Any) -> None:
     s = sub.add_parser("simulate", help=what, description=what[0].upper() + what[1:] + ".")
     s.add_argument("--shape", default="cuboid", choices=SHAPE_CHOICES, help=SHAPE_HELP)
     s.add_argument("--preset", default="paper", choices=PRESET_CHOICES, help=PRESET_HELP)
-    s.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees (default: 0)")
+    s.add_argument("--incline-deg", type=float, default=0.0, help="substrate incline, degrees; negative: downhill (default: 0)")
     s.add_argument("--field-mT", type=float, default=20.0, dest="field_mT", help="rotating field magnitude, mT (default: 20)")
     s.add_argument("--freq-hz", type=float, default=1.0, help="field frequency, Hz (default: 1)")
     s.add_argument("--duration-s", type=float, default=2.0, help="simulated time, s (default: 2)")
@@ -91,6 +92,10 @@ def run(args: argparse.Namespace) -> int:
         t = ds["time"].values
         summary = {"duration": float(t[-1] - t[0]), "progress": float(ds["progress"].values[-1]), "status": int(ds.attrs.get("status", 0))}
         print(f"(no steady-state summary: {exc})")
+    said = incline_words(args.incline_deg)
+    if said:  # negative: downhill, and the verdict is named for it
+        print(said)
+        summary = {(verdict_name(args.incline_deg) if k == "climbed" else k): v for k, v in summary.items()}
     print(format_table(summary, SUMMARY_UNITS))
     status = int(ds.attrs.get("status", 0))
     if status != 0:

@@ -16,7 +16,11 @@ def register(sub: Any) -> None:
     sp.add_argument("--quick", action="store_true", help="the CI size: studies/stress_quick.toml and 8 3-D runs")
     sp.add_argument("--config", default=None, help="study TOML (default: studies/stress.toml, or stress_quick.toml with --quick)")
     sp.add_argument("--result", default=None, help="study result netCDF (default: results/<study name>.nc; resumed if present)")
-    sp.add_argument("--out", default="docs", help="report folder for stress.md and stress.png (default: docs)")
+    sp.add_argument(
+        "--out",
+        default="results",
+        help="report folder for stress.md and stress.png (default: results; the project's own report is --out docs)",
+    )
     sp.add_argument("--n3d", type=int, default=None, help="3-D runs (default: 100, or 8 with --quick)")
     sp.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores; 0: no dask)")
     sp.set_defaults(run=run)

@@ -54,14 +54,18 @@ def register(sub: Any) -> None:
     )
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--plot", action="store_true", help="also write the study plots next to the result")
-    t = ss.add_parser("status", help="how far a study got", description="How far a study got (from its TOML or its result file).")
-    t.add_argument("study", help="study TOML or result netCDF")
+    t = ss.add_parser(
+        "status",
+        help="how far a study got",
+        description="How far a study got (from its TOML or its result path, also of an interrupted study), with the runs done per cell.",
+    )
+    t.add_argument("study", help="study TOML or result netCDF (an interrupted study's too: its shards are in <result>.parts)")
     t.add_argument("--out", default=None, help="result netCDF of a TOML given (default: results/<study name>.nc)")
     pl = ss.add_parser(
         "plot", help="plot a study result", description="Success-probability heatmap, curves with CI bands, progress-ratio distributions."
     )
-    pl.add_argument("result", help="result netCDF")
-    pl.add_argument("--out", default=None, help="output directory (default: next to the result, <name>_plots)")
+    pl.add_argument("result", help="result netCDF; of an interrupted grid study, the runs done so far are plotted, marked partial")
+    pl.add_argument("--out", default=None, help="output directory (default: next to the result, <name>_plots, or <name>_partial_plots)")
     cmp = ss.add_parser(
         "compare",
         help="critical-incline curve vs a grid map",
@@ -164,15 +168,25 @@ def success_table(maps: xr.Dataset, threshold: float = 0.5) -> str:
         head = ", ".join(f"{d} = {p[d].values[i]:g}" for d, i in sel.items() if p.sizes[d] > 1)
         inc = q["incline_deg"].values
         lines = [f"P(success){' at ' + head if head else ''} by incline (deg); last column: steepest incline with P >= {threshold:g}"]
+        if (inc < 0).any():  # downhill slopes: success there is descending, not climbing
+            lines[0] += " (negative inclines are downhill: the robot tumbles down them)"
         lines.append(f"{'shape':<12} {'substrate':<9} " + " ".join(f"{t:>4g}" for t in inc) + "   climbs to")
         for s in q["shape"].values:
             for sub in q["substrate"].values:
                 v = q.sel(shape=s, substrate=sub).transpose("incline_deg").values
                 ok = inc[np.nan_to_num(v, nan=-1.0) >= threshold]
                 cells = " ".join(f"{x:4.2f}" if np.isfinite(x) else "   -" for x in v)
-                lines.append(f"{s!s:<12} {sub!s:<9} {cells}   {f'{ok.max():g} deg' if len(ok) else 'none'}")
+                lines.append(f"{s!s:<12} {sub!s:<9} {cells}   {_climbs_to(ok)}")
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
+
+
+def _climbs_to(ok: np.ndarray) -> str:
+    """The last column of :func:`success_table`: the steepest incline succeeded, in words when it is downhill."""
+    if not len(ok):
+        return "none"
+    top = float(ok.max())
+    return f"{top:g} deg" if top >= 0 else f"none uphill; descends {-top:g} deg"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -180,7 +194,12 @@ def run(args: argparse.Namespace) -> int:
     from tumblemc.study.engine import study_status
 
     if args.study_command == "status":
-        print(format_table(study_status(args.study, args.out)))
+        st = study_status(args.study, args.out)
+        where = st.pop("cells", None)
+        print(format_table(st))
+        if where:
+            print()
+            print(where)
         return 0
     if args.study_command == "plot":
         return _plot(args)
@@ -254,11 +273,18 @@ def _bokeh_note() -> str:
 def _plot(args: argparse.Namespace) -> int:
     from tumblemc.analysis.words import check_words, early_words
     from tumblemc.io import open_result
+    from tumblemc.study.partial import has_parts, partial_result
     from tumblemc.viz.study import plot_study
 
     result = Path(args.result)
-    runs, maps = open_result(result)
-    out_dir = Path(args.out) if args.out else result.with_name(result.stem + "_plots")
+    suffix = "_plots"
+    if not result.exists() and has_parts(result):  # interrupted: what is done, said to be partial
+        runs, maps, note = partial_result(result)
+        print(note)
+        suffix = "_partial_plots"
+    else:
+        runs, maps = open_result(result)
+    out_dir = Path(args.out) if args.out else result.with_name(result.stem + suffix)
     for path in plot_study(runs, maps, out_dir):
         print(f"wrote {path}")
     for words in (check_words(runs, str(result)), early_words(runs)):

@@ -30,7 +30,7 @@ shapes*              list of shape names (:data:`tumblemc.shapes.SHAPES`)
 presets*             list of substrate presets (:data:`tumblemc.model.params.PRESETS`); the
                      run-table coordinate is ``substrate``
 incline_deg*         list of numbers, or ``{start, stop, step}`` (stop inclusive);
-                     each in [-89, 89] degrees
+                     each in [-89, 89] degrees (negative: downhill)
 field_mT*            number or list, mT, in (0, 10000]
 freq_hz*             number or list, Hz, in (0, 10000]
 periods              simulated field periods, >= 2 (default 2)

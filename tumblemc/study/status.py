@@ -10,10 +10,11 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.words import check_words, early_words, threshold_words
-from tumblemc.io import ShardStore, open_result, read_study_json, result_attrs
+from tumblemc.io import ShardStore, open_result, parts_dir, read_study_json, result_attrs
 from tumblemc.study.config import load_config
 from tumblemc.study.design import check_subset, design
 from tumblemc.study.identity import config_hash, config_to_json
+from tumblemc.study.partial import cell_map, config_of_parts, has_parts
 
 
 def default_output(cfg: Any) -> Path:
@@ -22,17 +23,28 @@ def default_output(cfg: Any) -> Path:
 
 
 def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> dict[str, Any]:
-    """How far a study got, from its config (and the default or given result path) or from a result file.
+    """How far a study got, from its config (and the default or given result path) or from its result path.
 
-    Keys: ``state`` ("not started", "partial", "complete"), ``done``, ``total``, ``failed``
-    and, when complete, the check summary.
+    The result path of an interrupted study (no file yet, its shards in ``<result>.parts``)
+    reads the config from the shard folder. Keys: ``state`` ("not started", "partial",
+    "complete"), ``done``, ``total``, ``failed``; when partial, ``cells`` (the runs done per
+    cell as a text table, :func:`tumblemc.study.partial.cell_map`); when complete, the check
+    summary.
     """
     p = Path(config_or_result)
-    if p.suffix == ".nc":
+    if p.suffix == ".nc" and (p.exists() or not has_parts(p)):
+        if not p.exists():
+            raise FileNotFoundError(
+                f"{p} does not exist, nor its shard folder {parts_dir(p)}: the study has not started there "
+                "(give its TOML to see what it would run)"
+            )
         runs, _ = open_result(p)
         return _complete_status(runs, p)
-    cfg = load_config(p)
-    path = Path(out) if out is not None else default_output(cfg)
+    if p.suffix == ".nc":  # interrupted: its config is in the shard folder
+        cfg, path = config_of_parts(p), p
+    else:
+        cfg = load_config(p)
+        path = Path(out) if out is not None else default_output(cfg)
     chash = config_hash(cfg)
     if path.exists():
         stored = result_attrs(path).get("config_hash")
@@ -72,6 +84,8 @@ def study_status(config_or_result: str | os.PathLike[str], out: str | os.PathLik
             f"adaptive sampling (precision {cfg.precision:g}): total and check_total are the most it runs; "
             "cells stop once their interval's half-width is at most the precision"
         )
+    if done:  # where they are: runs done per cell
+        out_st["cells"] = cell_map(cfg, main["run"])
     if damaged:
         out_st["damaged_shards"] = f"{len(damaged)} (set aside and simulated again by the next `study run`): " + ", ".join(
             f"{f.name} {why}" for f, why in damaged
