@@ -474,12 +474,13 @@ for name, uncertain in studies.items():
         """import matplotlib.pyplot as plt
 
 fig, ax = plt.subplots(figsize=(6, 4))
-for name, m in maps.items():
+# the two studies side by side at each incline (1 deg apart), so neither's bars hide the other's
+for k, (name, m) in enumerate(maps.items()):
     sel = m.sel(shape="cuboid", substrate="paper").squeeze()
-    inc = sel["incline_deg"].values
+    inc = sel["incline_deg"].values + (k - 0.5) * 1.0
     p = sel["p_success"].values
     err = [p - sel["p_success_lower"].values, sel["p_success_upper"].values - p]
-    ax.errorbar(inc, p, yerr=err, fmt="o-", capsize=3, label=name)
+    ax.errorbar(inc, p, yerr=err, fmt="os"[k] + "-", capsize=3, label=name)
 ax.set_xlabel("incline (deg)")
 ax.set_ylabel("P(climb)")
 ax.set_ylim(-0.05, 1.05)

@@ -18,7 +18,7 @@ def _title(ds: xr.Dataset, what: str) -> str:
 
 def plot_static_tilt(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
     """Equilibrium tilt against field strength, the rocking range, and the closed form where it applies."""
-    fig = Figure(figsize=(6.0, 4.0))
+    fig = Figure(figsize=(6.0, 4.0), layout="constrained")
     ax = fig.add_subplot()
     b = ds["field_mT"].values
     ax.fill_between(b, ds["tilt_min_deg"], ds["tilt_max_deg"], color="0.85", label="rocking range")
@@ -35,35 +35,46 @@ def plot_static_tilt(ds: xr.Dataset, path: str | os.PathLike[str] | None = None)
 
 
 def plot_step_out(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Speed, phase lag and the share of the field's turns followed against frequency, with the step-out marked."""
-    fig = Figure(figsize=(6.0, 6.5))
+    """Speed, phase lag and the share of the field's turns followed against frequency, with the step-out marked.
+
+    The share is the magnet's turns in the rotation plane divided by the field's, after the
+    first period: 1 when the robot follows every turn, near 0 once it stepped out and only
+    rocks; the step-out is where it falls below ``ds.attrs["step_out_share"]`` (0.5).
+    """
+    fig = Figure(figsize=(6.4, 7.0), layout="constrained")
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     f = ds["freq_hz"].values
     ax1.plot(f, ds["speed"], "o-", ms=4, label="simulated")
     ax1.plot(f, ds["speed"].values / ds["progress_ratio"].values, "--", color="0.5", lw=1, label="no-slip tumbling")
     ax1.set_ylabel("speed (mm/s)")
-    ax1.legend(fontsize=8)
     ax2.plot(f, ds["phase_lag_deg"], "o-", ms=4, color="C1")
-    ax2.set_ylabel("mean phase lag (deg)")
+    ax2.set_ylabel("mean phase lag\n(field - magnet, deg)")
+    share = float(ds.attrs.get("step_out_share", 0.5))
     if "following_share" in ds:
         ax3.plot(f, ds["following_share"], "o-", ms=4, color="C2")
-        ax3.axhline(float(ds.attrs.get("step_out_share", 0.5)), color="0.5", lw=0.8, ls=":")
-    ax3.set_ylabel("field turns followed")
+        ax3.axhline(share, color="0.5", lw=0.8, ls=":", label=f"follows at ≥ {share:g}")
+        ax3.legend(fontsize=8, loc="center left")
+    ax3.set_ylabel("turns made /\nfield turns")
     ax3.set_xlabel("field frequency (Hz)")
     so = float(ds["step_out_hz"])
     for ax in (ax1, ax2, ax3):
         ax.grid(alpha=0.3)
         if np.isfinite(so):
-            ax.axvline(so, color="C3", lw=1)
-    head = f"; step-out at {so:.4g} Hz" if np.isfinite(so) else "; no step-out in the sweep"
-    ax1.set_title(_title(ds, "Step-out") + f", {ds.attrs.get('field_mT', '?'):g} mT" + head, fontsize=10)
+            ax.axvline(so, color="C3", lw=1, label=f"step-out {so:.4g} Hz" if ax is ax1 else None)
+    ax1.legend(fontsize=8)
+    head = f"step-out at {so:.4g} Hz" if np.isfinite(so) else "no step-out in the sweep"
+    fig.suptitle(
+        _title(ds, "Step-out") + f", {ds.attrs.get('field_mT', '?'):g} mT: {head}\n"
+        "turns made / field turns: the magnet's turns over the field's after the first period",
+        fontsize=9,
+    )
     save_figure(fig, path)
     return fig
 
 
 def plot_steering(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
     """Top view of the centre of mass's path over the two legs, with the turn."""
-    fig = Figure(figsize=(5.0, 5.0))
+    fig = Figure(figsize=(5.0, 5.0), layout="constrained")
     ax = fig.add_subplot()
     t = ds["time"].values
     p = ds["position"].values * 1e3
@@ -85,7 +96,7 @@ def plot_steering(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) ->
 
 def plot_critical_field(ds: xr.Dataset, path: str | os.PathLike[str] | None = None) -> Figure:
     """The bisection's trials (field against trial, by verdict) or, per sample, the critical fields' histogram."""
-    fig = Figure(figsize=(6.0, 3.8))
+    fig = Figure(figsize=(6.0, 3.8), layout="constrained")
     ax = fig.add_subplot()
     if "sample" in ds.dims:
         ax.hist(ds["critical_mT"].values[np.isfinite(ds["critical_mT"].values)], bins=max(5, ds.sizes["sample"] // 3), color="C0")

@@ -91,6 +91,20 @@ def ratio_axis(ax: Axes, lo: float, hi: float, threshold: float) -> str:
     return label
 
 
+def _legend_columns(handles: list[Line2D], width_in: float) -> int:
+    """The most legend columns whose entries fit across ``width_in`` inches (8 pt text).
+
+    A legend wider than the panels would widen the figure and leave the panels squeezed
+    in its middle; entries that do not fit go to further rows instead.
+    """
+    widths = [0.45 + 0.065 * len(str(h.get_label())) for h in handles]  # marker, gap and about 0.065 in a character
+    for ncol in range(len(widths), 1, -1):
+        cols = [max(widths[i::ncol]) for i in range(ncol)]
+        if sum(cols) <= width_in:
+            return ncol
+    return 1
+
+
 def _bottom_strip(ax: Axes, frac: float = 0.1) -> None:
     """Lower the y limit by ``frac`` of the axis height (in its scale) for the invalid-run crosses."""
     tr = ax.yaxis.get_transform()
@@ -116,7 +130,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
         would be too wide), inclines along x, a box per shape at each incline; a shared
         symmetric-log y axis (:func:`ratio_axis`: linear on the shaded band); the dashed
         line is the success threshold ``runs.attrs["success_ratio"]`` (default 0.5); runs
-        that are not valid (status != 0, no ratio) are red crosses along the bottom edge;
+        that are not valid (status != 0, no ratio) are red crosses along the bottom edge
+        (in the legend only when there are some);
         runs stopped by an early decision (``decided_early``) are open triangles at their
         ratio up to the decision, which the boxes include (their final ratio is only known
         to be below the threshold).
@@ -190,7 +205,8 @@ def plot_ratio_distribution(runs: xr.Dataset, *, path: str | os.PathLike[str] | 
     if early.any():
         lab = "decided early (ratio up to then, in the boxes; fails)"
         handles.append(Line2D([], [], color="0.3", marker="v", mfc="none", ls="", label=lab))
-    handles.append(Line2D([], [], color="red", marker="x", ls="", label="not valid (status != 0)"))
-    fig.legend(handles=handles, loc="outside upper center", ncol=len(handles), fontsize=8, frameon=False)
+    if bad.any():
+        handles.append(Line2D([], [], color="red", marker="x", ls="", label="not valid (status != 0)"))
+    fig.legend(handles=handles, loc="outside upper center", ncol=_legend_columns(handles, fig.get_figwidth()), fontsize=8, frameon=False)
     save_figure(fig, path)
     return fig

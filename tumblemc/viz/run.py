@@ -162,24 +162,24 @@ def _panel_progress(ax: Any, ds: xr.Dataset) -> None:
     ax.legend(loc="upper left", fontsize=8, frameon=False)
 
 
-def _panel_contact(ax: Any, ds: xr.Dataset) -> None:
+def _panel_contact(ax_mode: Any, ax_adh: Any, ds: xr.Dataset) -> None:
+    """Contact mode (upper strip) and adhesion force (lower) on their own axes, sharing time."""
     t = ds["time"].values
     mode = ds["contact_mode"].values.astype(float)
-    ax.step(t, mode, where="post", color="C2", lw=1.0, label="mode")
-    ax.set_yticks([0, 1, 2], list(MODE_LABELS))
-    ax.set_ylim(-0.3, 2.3)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("contact mode", color="C2")
-    ax.set_title("(b) contact mode and adhesion", loc="left", fontsize=10)
-    ax.grid(True, axis="x", alpha=0.3)
-    ax2 = ax.twinx()
-    ax2.plot(t, ds["adhesion_force"].values * UN, color="C3", lw=1.0, alpha=0.8, label="adhesion")
-    ax2.set_ylabel("adhesion force (µN)", color="C3")
-    ax2.tick_params(axis="y", colors="C3")
-    ax2.set_ylim(bottom=min(0.0, float(np.nanmin(ds["adhesion_force"].values * UN, initial=0.0))))
-    lines = ax.get_lines()[:1] + ax2.get_lines()[:1]
-    labels = [ln.get_label() for ln in lines]
-    ax.legend(lines, labels, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=2, fontsize=8, frameon=False, borderaxespad=0.1)
+    ax_mode.step(t, mode, where="post", color="C2", lw=1.0)
+    ax_mode.set_yticks([0, 1, 2], list(MODE_LABELS))
+    ax_mode.set_ylim(-0.3, 2.3)
+    ax_mode.set_ylabel("contact\nmode", fontsize=9)
+    ax_mode.tick_params(axis="x", labelbottom=False)
+    ax_mode.tick_params(axis="y", labelsize=8)
+    ax_mode.set_title("(b) contact mode and adhesion", loc="left", fontsize=10)
+    ax_mode.grid(True, alpha=0.3)
+    adh = ds["adhesion_force"].values * UN
+    ax_adh.plot(t, adh, color="C3", lw=1.0)
+    ax_adh.set_ylabel("adhesion force (µN)")
+    ax_adh.set_xlabel("time (s)")
+    ax_adh.set_ylim(bottom=min(0.0, float(np.nanmin(adh, initial=0.0))))
+    ax_adh.grid(True, alpha=0.3)
 
 
 def _snapshot_indices(n: int, count: int) -> np.ndarray:
@@ -243,7 +243,12 @@ def _strip_data(ds: xr.Dataset, shape: str | Shape | None, count: int) -> dict[s
         labels.append(((s.min() + s.max()) / 2 * UM + off * UM, f"{t[i]:.3g} s\ns={s_cm * UM:.0f} µm"))
     allxy = np.concatenate(polys)
     pad = 0.12 * size * UM
-    xlim = (float(allxy[:, 0].min()) - pad, float(allxy[:, 0].max()) + pad)
+    # the labels under the outlines are about 0.9 body sizes wide (strip_offsets' label_w)
+    xs = np.array([x for x, _ in labels])
+    xlim = (
+        min(float(allxy[:, 0].min()), float(xs.min()) - 0.5 * size * UM) - pad,
+        max(float(allxy[:, 0].max()), float(xs.max()) + 0.5 * size * UM) + pad,
+    )
     ylim = (min(0.0, float(allxy[:, 1].min())) - 0.9 * size * UM, float(allxy[:, 1].max()) + 0.5 * size * UM)
     return {
         "t": t[idx],
@@ -302,7 +307,7 @@ def plot_run(
     """Three-panel figure of one run; saved as PNG (or any matplotlib format) if ``path``.
 
     (a) uphill progress vs time with the no-slip line ``ideal_speed * (t - t0)`` anchored
-    one field period in; (b) contact mode (step) and adhesion force (twin axis) vs time;
+    one field period in; (b) contact mode (step, upper strip) and adhesion force (below) vs time;
     (c) side-view strip of the body outline at ``snapshots`` regular instants in plane
     coordinates, coloured by time, spread along the plane so that they do not overlap.
 
@@ -318,10 +323,12 @@ def plot_run(
     fig = Figure(figsize=(width_in, top_in + strip_in + 0.6), layout="constrained")
     gs = fig.add_gridspec(2, 2, height_ratios=[top_in, strip_in])
     ax_a = fig.add_subplot(gs[0, 0])
-    ax_b = fig.add_subplot(gs[0, 1])
+    gs_b = gs[0, 1].subgridspec(2, 1, height_ratios=[1.0, 2.0])
+    ax_b = fig.add_subplot(gs_b[0])
+    ax_b2 = fig.add_subplot(gs_b[1], sharex=ax_b)
     ax_c = fig.add_subplot(gs[1, :])
     _panel_progress(ax_a, ds)
-    _panel_contact(ax_b, ds)
+    _panel_contact(ax_b, ax_b2, ds)
     _panel_strip(ax_c, ds, strip)
     fig.suptitle(f"{run_label(ds)}\n{_summary_label(ds)}", fontsize=10)
     if path is not None:

@@ -238,7 +238,8 @@ def plot_prim(trajectory: xr.Dataset | PrimResult, path: str | os.PathLike[str] 
     ax.set_xlabel("coverage (fraction of targets inside the box)")
     ax.set_ylabel("density (fraction of the box that are targets)")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7, frameon=True, framealpha=0.9, loc="center left")
+    # below the panel: the peeling path may pass anywhere inside it
+    fig.legend(fontsize=7, frameon=False, loc="outside lower center", ncol=2)
     fig.colorbar(sc, ax=ax, label="support")
     target = traj.attrs.get("target", "target")
     ax.set_title(f"PRIM peeling; targets: {target}", fontsize=9)

@@ -13,8 +13,8 @@ from matplotlib.figure import Figure
 from tumblemc.model.energy import ENERGY_GAIN_TOL
 
 
-def stress_figure(runs: xr.Dataset, three_d: list[dict[str, Any]], path: Path) -> None:
-    """Draw the stress report's figure into ``path``.
+def stress_figure(runs: xr.Dataset, three_d: list[dict[str, Any]], path: Path | None = None) -> Figure:
+    """Draw the stress report's figure, into ``path`` when given; returns the Figure.
 
     Left, the energy ledger's gains (study runs, 3-D runs); right, the dt check's progress
     ratios at dt against dt / 4.
@@ -64,7 +64,9 @@ def stress_figure(runs: xr.Dataset, three_d: list[dict[str, Any]], path: Path) -
         ax2.set(xlim=(-lim, lim), ylim=(-lim, lim), xlabel="progress ratio at dt", ylabel="progress ratio at dt / 4")
         ax2.set_title("dt check (dotted: the climb threshold 0.5)")
         ax2.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
 
 
 def _symlog_ticks(lim: float) -> list[float]:

@@ -177,8 +177,12 @@ def _annotate_cells(ax: Any, texts: list[tuple[float, float, str, str, str]], nx
     return "none"
 
 
+#: marker per shape of the success curves (cycled), so that shapes differ by more than colour
+CURVE_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
+
+
 def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None = None) -> Figure:
-    """Success probability against incline with confidence bands, one line per shape.
+    """Success probability against incline with confidence intervals, one line per shape.
 
     Parameters
     ----------
@@ -190,23 +194,40 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
     Returns
     -------
     Figure
-        A panel per substrate (and per swept field setting); the shaded band is the
-        confidence interval of ``p_success``; cells without valid runs leave a gap.
+        A panel per substrate (and per swept field setting); each shape has its colour
+        and marker, and its confidence interval of ``p_success`` as an error bar; the
+        shapes are offset along x by a small fraction of the incline step so that their
+        bars do not hide each other (the offset is said in the title); cells without
+        valid runs leave a gap.
     """
     subs = _substrates(maps["substrate"].values, None)
     rows = sweep_rows(maps, _map_dims(maps))
     shapes = [str(s) for s in maps["shape"].values]
     x = maps["incline_deg"].values.astype(np.float64)
-    fig, axes = panel_grid(len(rows), len(subs), 4.0, 2.8)
+    step = float(np.min(np.diff(x))) if x.size > 1 else 1.0
+    dodge = 0.12 * step if len(shapes) > 1 else 0.0
+    fig, axes = panel_grid(len(rows), len(subs), float(np.clip(0.35 * x.size, 4.0, 5.5)), 2.8)
     for r, row in enumerate(rows):
         for c, sub in enumerate(subs):
             ax = axes[r, c]
             for k, shp in enumerate(shapes):
                 m = maps.sel(substrate=sub, shape=shp, **row)
-                colour = f"C{k % 10}"
-                ax.fill_between(x, m["p_success_lower"].values, m["p_success_upper"].values, color=colour, alpha=0.2, lw=0)
-                ax.plot(x, m["p_success"].values, "o-", color=colour, ms=3.5, lw=1.4, label=shp)
-            ax.set_ylim(-0.03, 1.03)
+                p = m["p_success"].values
+                err = np.vstack([p - m["p_success_lower"].values, m["p_success_upper"].values - p])
+                xk = x + (k - (len(shapes) - 1) / 2) * dodge
+                ax.errorbar(
+                    xk,
+                    p,
+                    yerr=err,
+                    color=f"C{k % 10}",
+                    marker=CURVE_MARKERS[k % len(CURVE_MARKERS)],
+                    ms=3.5,
+                    lw=1.2,
+                    elinewidth=0.9,
+                    capsize=2.0,
+                    label=shp,
+                )
+            ax.set_ylim(-0.05, 1.05)
             ax.set_xlabel("incline (deg)")
             if c == 0:
                 ax.set_ylabel("P(success)")
@@ -216,7 +237,8 @@ def plot_success_curves(maps: xr.Dataset, *, path: str | os.PathLike[str] | None
                 ax.legend(fontsize=8, frameon=False, title="shape", title_fontsize=8)
     level = float(maps["p_success_lower"].attrs.get("confidence_level", float("nan")))
     method = ci_label(maps["p_success_lower"].attrs.get("ci_method", "?"))
-    fig.suptitle(f"success probability of valid runs; bands: {level:.0%} {method} interval", fontsize=9)
+    shift = f"\nshapes offset by {dodge:g} deg so that their bars stay apart" if dodge else ""
+    fig.suptitle(f"success probability of valid runs; bars: {level:.0%} {method} interval{shift}", fontsize=9)
     save_figure(fig, path)
     return fig
 

@@ -249,6 +249,9 @@ def plot_convergence(
                 ax.set_title(f"torque at the {torque} of the step", fontsize=10)
         lo, hi = axs[g, 0].get_ylim()
         if lo - 0.1 * (hi - lo) <= threshold <= hi + 0.1 * (hi - lo):
+            # a threshold near the edge gets room, so that it does not sit on the frame
+            span = max(hi, threshold) - min(lo, threshold)
+            axs[g, 0].set_ylim(min(lo, threshold - 0.06 * span), max(hi, threshold + 0.06 * span))
             for ax in axs[g]:
                 ax.axhline(threshold, color="k", ls="--", lw=1.0)
         kind = "climbing cases" if climbs[group[0]] else "cases sliding down"
