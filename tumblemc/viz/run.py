@@ -26,6 +26,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
+from tumblemc.analysis.words import verdict_name
 from tumblemc.model.frames import plane_frame, quat_to_matrix
 from tumblemc.model.shapes.library import SHAPES, get_shape
 from tumblemc.model.shapes.types import Shape
@@ -128,9 +129,11 @@ def _summary_label(ds: xr.Dataset) -> str:
     except (ValueError, KeyError) as exc:
         msg = str(exc).split("(")[0].strip()
         return f"no summary: {msg}"
+    verdict = verdict_name(float(ds.attrs.get("incline_deg", 0.0)))  # "descended" on a downhill slope
+    said = verdict if sm["climbed"] else {"climbed": "did not climb", "descended": "did not descend"}[verdict]
     return (
         f"mean speed {sm['mean_speed'] * 1e3:.3g} mm/s of ideal {sm['ideal_speed'] * 1e3:.3g} mm/s "
-        f"(ratio {sm['progress_ratio']:.3f}, {'climbed' if sm['climbed'] else 'did not climb'}); "
+        f"(ratio {sm['progress_ratio']:.3f}, {said}); "
         f"failed steps {sm['failed_steps']}, max penetration {format_penetration(sm['max_penetration'])}, status {sm['status']}"
     )
 
@@ -156,7 +159,7 @@ def _panel_progress(ax: Any, ds: xr.Dataset) -> None:
         for k in range(1, int(np.floor((t[-1] - t[0]) * freq)) + 1):  # field periods
             ax.axvline(t[0] + k / freq, color="0.85", lw=0.6, zorder=0)
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("uphill progress (µm)")
+    ax.set_ylabel(f"{'downhill' if float(ds.attrs.get('incline_deg', 0.0)) < 0 else 'uphill'} progress (µm)")
     ax.set_title("(a) progress along the plane", loc="left", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper left", fontsize=8, frameon=False)
