@@ -41,6 +41,9 @@ def test_simulate_writes_netcdf_and_png(tmp_path, capsys):
         assert int(ds.attrs["electrostatic_in_flight"]) == 0
         assert np.asarray(ds.attrs["offset_axis"]).shape == (3,)
         assert ds.attrs["torque"] == "start"
+        # labels along a dimension: xarray selects by them; on disk char arrays named in `coordinates`
+        assert ds["position"].sel(xyz="z").dims == ("time",) and ds["quaternion"].sel(quat="w").dims == ("time",)
+        assert "xyz" in ds["position"].encoding["coordinates"].split() and ds["xyz"].encoding["dtype"] == "S1"
     png = out.with_suffix(".png")
     assert png.stat().st_size > 10_000
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
