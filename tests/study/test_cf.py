@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from tests.tooling import load_tool
 from tumblemc import version
 from tumblemc.io import open_result, result_attrs, write_result
 from tumblemc.schema import MAPS_FROM_RUNS_ATTRS, STUDY_FILE_ATTRS
@@ -226,6 +227,14 @@ def test_files_of_earlier_forms_still_open(tmp_path: Path, form: str) -> None:
     xr.testing.assert_identical(got_maps, maps)
     xr.testing.assert_identical(got_runs, runs)
     assert float(got_maps["p_success"].sel(shape="spiked_ends", substrate="aluminum", incline_deg=30.0)) == 3.0
+    # tools/upgrade_result.py rewrites it in the current form, values unchanged
+    load_tool("upgrade_result").main([str(path), "--out", str(tmp_path / "new.nc")])
+    with xr.open_datatree(tmp_path / "new.nc", engine="netcdf4") as tree:
+        assert float(tree["maps"]["p_success"].sel(shape="spiked_ends", substrate="aluminum", incline_deg=30.0)) == 3.0
+        assert tree.attrs["Conventions"] == "CF-1.10" and "upgrade_result.py" in tree.attrs["history"]
+    new_runs, new_maps = open_result(tmp_path / "new.nc")
+    xr.testing.assert_identical(new_maps, maps)
+    xr.testing.assert_identical(new_runs, runs)
 
 
 def test_written_files_round_trip_through_open_result(tmp_path: Path) -> None:
