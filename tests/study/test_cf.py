@@ -100,8 +100,8 @@ def test_check_flag_is_int8_with_flag_attributes(study: Path) -> None:
             assert len(var.attrs["flag_values"]) == len(var.attrs["flag_meanings"].split()), name
 
 
-def test_study_file_has_no_standard_name_but_time_would(study: Path) -> None:
-    # the study file has no time axis, and no other quantity of it has a CF standard name
+def test_study_file_has_no_standard_name(study: Path) -> None:
+    # no quantity of it has a CF standard name (tumblemc.schema)
     with xr.open_datatree(study, engine="netcdf4") as tree:
         names = {v.attrs.get("standard_name") for node in tree.subtree for v in node.dataset.variables.values()}
     assert names == {None}
