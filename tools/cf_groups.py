@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     with netCDF4.Dataset(args.study) as nc:
-        groups = dict(nc.groups) or {"root": nc}  # a file without groups (a run, a calibration): its root
+        groups: dict[str, Any] = dict(nc.groups) or {"root": nc}  # a file without groups (a run, a calibration): its root
         for g, group in groups.items():
             path = args.out / f"{args.study.stem}_{g}.nc"
             copy_group(group, nc.__dict__, path, args.cf18, args.char)
