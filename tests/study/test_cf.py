@@ -248,3 +248,8 @@ def test_written_files_round_trip_through_open_result(tmp_path: Path) -> None:
     assert raw["runs/error"].dimensions == ("run", "error_strlen") and raw["runs/error"].dtype == "S1"
     assert raw["runs/climbed"].attrs["coordinates"] == "shape"
     assert set(raw["maps/p_success"].attrs["coordinates"].split()) == {"field_mT", "shape", "substrate"}
+    # tools/cf_groups.py: each group a file of its own for the CF checker, stored bytes unchanged
+    load_tool("cf_groups").main([str(tmp_path / "new.nc"), str(tmp_path / "cf"), "--cf18"])
+    with netCDF4.Dataset(tmp_path / "cf" / "new_maps.nc") as nc:
+        assert nc.variables["shape"].dimensions == ("shape", "shape_strlen") and nc.Conventions == "CF-1.8"
+        assert nc.title == "maps" and list(nc.variables["shape"][:]) == ["cuboid", "spiked_ends"]
