@@ -45,6 +45,7 @@ LAYERS: dict[str, int] = {
     "tumblemc.testing": 1,
     # pure functions of Datasets and files
     "tumblemc.io": 2,
+    "tumblemc.ncformat": 2,
     "tumblemc.analysis": 2,
     "tumblemc.study": 3,
     # bench tests and calibration: runs, summarised (figures in viz)

@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from tumblemc.ncformat import from_labels, write_dataset, write_groups
+
 SHARD_SUFFIX = ".npz"
 DIGEST_CHARS = 16  # hex digits of the shard's SHA-256 in its name
 LEGACY_TAG_CHARS = 8  # the random tag that ended a shard's name in earlier versions: no checksum to verify
@@ -371,16 +373,15 @@ def remove_stale_temps(path: Path) -> list[Path]:
 def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dict[str, Any]) -> None:
     """Write ``runs`` and ``maps`` as groups of one netCDF4 file (zlib), atomically.
 
-    A failure leaves no temporary file behind; a full disk raises :class:`ResultWriteError`
-    saying so (netCDF reports it as an ``HDF error``).
+    Plain xarray reads it (``xr.open_dataset(path, group="maps").sel(shape="cuboid")``),
+    and so does any netCDF-4 reader: :mod:`tumblemc.ncformat` says how. A failure leaves
+    no temporary file behind; a full disk raises :class:`ResultWriteError` saying so
+    (netCDF reports it as an ``HDF error``).
     """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
-        xr.Dataset(attrs=root_attrs).to_netcdf(tmp, mode="w", engine="netcdf4")
-        for group, ds in (("runs", runs), ("maps", maps)):
-            enc = {v: {"zlib": True, "complevel": 4} for v in ds.data_vars if ds[v].dtype.kind in "fiub"}
-            _to_cf_labels(ds).to_netcdf(tmp, mode="a", group=group, engine="netcdf4", encoding=enc)
+        write_groups(tmp, root_attrs, {"runs": runs, "maps": maps})
         with open(tmp, "rb") as fh:  # on disk before the shards it replaces are removed
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -398,36 +399,17 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
 
 
 def open_result(path: str | Path) -> tuple[xr.Dataset, xr.Dataset]:
-    """Open a study file: ``(runs, maps)`` datasets, loaded into memory."""
+    """Open a study file: ``(runs, maps)`` datasets, loaded into memory.
+
+    The same as ``xr.open_dataset(path, group=...)`` with strings as numpy ``str``; files
+    written before the labels took their dimensions' names (``shape_label``) get their
+    index back (:func:`tumblemc.ncformat.from_labels`).
+    """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path} does not exist (a study result written by `tumblemc study run`)")
     with xr.open_dataset(path, group="runs", engine="netcdf4") as r, xr.open_dataset(path, group="maps", engine="netcdf4") as m:
-        return _from_cf_labels(r.load()), _from_cf_labels(m.load())
-
-
-LABEL_SUFFIX = "_label"
-
-
-def _to_cf_labels(ds: xr.Dataset) -> xr.Dataset:
-    """String dimension coordinates (``shape``, ``substrate``) as CF label variables ``<dim>_label``.
-
-    CF wants coordinate variables numeric (CF 1.10, sections 1.3 and 6.1): the file stores
-    the dimension without a coordinate variable and the names as an auxiliary string
-    coordinate; :func:`open_result` restores the index, so ``maps.sel(shape="cuboid")``
-    works as before.
-    """
-    names = {d: f"{d}{LABEL_SUFFIX}" for d in ds.dims if d in ds.coords and ds[d].dtype.kind in "OUS"}
-    return ds.rename_vars(names) if names else ds
-
-
-def _from_cf_labels(ds: xr.Dataset) -> xr.Dataset:
-    """Undo :func:`_to_cf_labels`: ``<dim>_label`` back to the indexed coordinate ``<dim>``."""
-    for d in list(ds.dims):
-        lab = f"{d}{LABEL_SUFFIX}"
-        if d not in ds.coords and lab in ds.coords and ds[lab].dims == (d,):
-            ds = ds.rename_vars({lab: d}).set_xindex(str(d))
-    return ds
+        return from_labels(r.load()), from_labels(m.load())
 
 
 def result_attrs(path: str | Path) -> dict[str, Any]:
@@ -464,10 +446,10 @@ def netcdf_ready(ds: Any) -> Any:
 def write_run(ds: xr.Dataset, path: str | Path) -> None:
     """Write one run's Dataset (:func:`tumblemc.simulate`) to netCDF, compressed.
 
-    Its attributes are made netCDF-safe first (:func:`netcdf_ready`).
+    Its attributes are made netCDF-safe first (:func:`netcdf_ready`), its strings written as
+    :mod:`tumblemc.ncformat` says.
     """
-    safe = netcdf_ready(ds)
-    safe.to_netcdf(path, engine="netcdf4", encoding={name: {"zlib": True, "complevel": 4} for name in safe.data_vars})
+    write_dataset(netcdf_ready(ds), path)
 
 
 __all__ = [

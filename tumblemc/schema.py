@@ -12,10 +12,11 @@ a run's time series (:data:`RUN_VARIABLES`), a study's coordinates
 :data:`STUDY_FILE_ATTRS` plus those :func:`tumblemc.study.assemble.provenance` builds; its
 groups hold only their own (:data:`MAPS_FROM_RUNS_ATTRS`).
 
-CF standard names exist for few of these quantities: the table (geoscience) has ``time``
-but no magnetic flux density, rotation frequency, friction coefficient, incline of a bench
-plane (``ground_slope_angle`` is the Earth's surface) or success probability, so only
-``time`` carries one and the study files, which have no time axis, carry none.
+CF standard names exist for few of these quantities: the table (geoscience) has no
+magnetic flux density, rotation frequency, friction coefficient, incline of a bench plane
+(``ground_slope_angle`` is the Earth's surface) or success probability, and its ``time``
+is a time coordinate, whose units CF wants with a reference date (``s since ...``, CF
+4.4): a run's time since its own start has none, so no variable carries a standard name.
 """
 
 from __future__ import annotations
@@ -31,7 +32,9 @@ CONTACT_MODE_FLAGS = {"flag_values": np.array([0, 1, 2], dtype=np.int8), "flag_m
 
 
 RUN_VARIABLES: dict[str, dict[str, Any]] = {
-    "time": {"units": "s", "standard_name": "time", "long_name": "time since the start of the run"},
+    "time": {"units": "s", "long_name": "time since the start of the run"},
+    "xyz": {"long_name": "world axis (label)"},
+    "quat": {"long_name": "quaternion component, scalar first (label)"},
     "progress": {"units": "m", "long_name": "uphill progress of the centre of mass along the plane"},
     "position": {"units": "m", "long_name": "centre-of-mass position (world frame)"},
     "quaternion": {"units": "1", "long_name": "orientation quaternion, scalar first (body to world)"},

@@ -41,6 +41,12 @@ def test_simulate_writes_netcdf_and_png(tmp_path, capsys):
         assert int(ds.attrs["electrostatic_in_flight"]) == 0
         assert np.asarray(ds.attrs["offset_axis"]).shape == (3,)
         assert ds.attrs["torque"] == "start"
+        # labels along a dimension: xarray selects by them; on disk char arrays named in `coordinates`
+        assert ds["position"].sel(xyz="z").dims == ("time",) and ds["quaternion"].sel(quat="w").dims == ("time",)
+        assert "xyz" in ds["position"].encoding["coordinates"].split() and ds["xyz"].encoding["dtype"] == "S1"
+        # CF 4.4: standard_name time needs units with a reference date, which a run's time has not
+        assert "standard_name" not in ds["time"].attrs and ds["time"].attrs["units"] == "s"
+        assert ds["xyz"].attrs["long_name"] and ds["quat"].attrs["long_name"]
     png = out.with_suffix(".png")
     assert png.stat().st_size > 10_000
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

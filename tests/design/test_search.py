@@ -82,6 +82,9 @@ def test_search_finds_a_good_design_within_budget(tmp_path: Path, strategy: str)
     assert true_p(x) >= best - tol, (strategy, x, true_p(x))
     conf = tr["confirm"].to_dataset().isel(objective=0)
     assert int(conf["robots"]) == 100
+    with xr.open_datatree(out, engine="netcdf4") as plain:  # xarray alone selects the objective by name
+        assert int(plain["confirm"].sel(objective=str(conf["objective"].values))["robots"]) == 100
+        assert plain.attrs["data_groups"] == "designs confirm runs"
     assert float(conf["lo"]) <= true_p(x) + 0.05 and true_p(x) - 0.05 <= float(conf["hi"])
 
 

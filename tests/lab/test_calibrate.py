@@ -235,6 +235,7 @@ def test_cli_calibrate(tmp_path, capsys) -> None:
     assert "posterior: MCMC (emcee" in text and "predictive check:" in text
     with xr.open_dataset(out) as ds:
         assert ds.sizes["sample"] == 500 and "F_elect" in ds and ds.attrs["test"] == "static_tilt"
+        assert "param" not in ds.sel(param="F_elect").dims  # xarray selects a parameter by name
     assert (tmp_path / "calib.png").exists()
     assert main(["calibrate", "speed", str(tmp_path / "tilt.csv"), "--free", "mu"]) == 2
     assert "its header is a static_tilt test, not speed" in capsys.readouterr().err

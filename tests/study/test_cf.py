@@ -14,12 +14,14 @@ import tomllib
 import types
 from pathlib import Path
 
+import netCDF4
 import numpy as np
 import pytest
 import xarray as xr
 
+from tests.tooling import load_tool
 from tumblemc import version
-from tumblemc.io import open_result, result_attrs
+from tumblemc.io import open_result, result_attrs, write_result
 from tumblemc.schema import MAPS_FROM_RUNS_ATTRS, STUDY_FILE_ATTRS
 from tumblemc.study.engine import run_study
 
@@ -98,8 +100,8 @@ def test_check_flag_is_int8_with_flag_attributes(study: Path) -> None:
             assert len(var.attrs["flag_values"]) == len(var.attrs["flag_meanings"].split()), name
 
 
-def test_study_file_has_no_standard_name_but_time_would(study: Path) -> None:
-    # the study file has no time axis, and no other quantity of it has a CF standard name
+def test_study_file_has_no_standard_name(study: Path) -> None:
+    # no quantity of it has a CF standard name (tumblemc.schema)
     with xr.open_datatree(study, engine="netcdf4") as tree:
         names = {v.attrs.get("standard_name") for node in tree.subtree for v in node.dataset.variables.values()}
     assert names == {None}
@@ -145,15 +147,109 @@ def test_an_installed_package_reports_the_commit_it_was_built_from(monkeypatch: 
     assert version.build_info() == {"git_sha": "ab" * 20, "git_dirty": 0, "git_sha_source": "build"}
 
 
-def test_coordinate_variables_are_numeric_and_labels_round_trip(study: Path) -> None:
-    """CF 1.3/6.1: no string coordinate variable in the file; open_result restores the string index."""
-    for group in ("runs", "maps"):
-        with xr.open_dataset(study, group=group, engine="netcdf4") as raw:
-            for d in raw.dims:
-                if d in raw.variables:
-                    assert raw[d].dtype.kind in "iuf", (group, d)
-    with xr.open_dataset(study, group="maps", engine="netcdf4") as raw:
-        assert list(raw["shape_label"].values) == ["cuboid"] and raw["shape_label"].dims == ("shape",)
-    _, maps = open_result(study)
-    assert "shape" in maps.indexes and "shape_label" not in maps.variables
+def _raw_variables(path: Path) -> dict[str, netCDF4.Variable]:
+    """Every variable of a netCDF file, as netCDF4 sees it, by group path ("maps/shape")."""
+    out: dict[str, netCDF4.Variable] = {}
+    with netCDF4.Dataset(path) as nc:
+        nc.set_auto_chartostring(False)
+        for g in [nc, *nc.groups.values()]:
+            for name, var in g.variables.items():
+                out[f"{g.name.strip('/')}/{name}".lstrip("/")] = var
+        # read what the checks below need while the file is open
+        return {k: types.SimpleNamespace(dtype=v.dtype, dimensions=v.dimensions, attrs=v.__dict__) for k, v in out.items()}
+
+
+def plain_reader_checks(path: Path) -> None:
+    """What a user of plain xarray, or of any netCDF-4 reader, meets in a study file."""
+    with xr.open_datatree(path, engine="netcdf4") as tree:
+        cell = tree["maps"].sel(shape="cuboid", substrate="aluminum")
+        assert "p_success" in cell and "shape" not in cell.dims and "substrate" not in cell.dims
+        assert set(tree.children) == {"runs", "maps"}
+    with xr.open_dataset(path, group="maps", engine="netcdf4") as maps:
+        assert float(maps["p_success"].sel(shape="cuboid", substrate="aluminum").isel(incline_deg=0)) >= 0.0
+        assert {"shape", "substrate"} <= set(maps.indexes)
+    with xr.open_dataset(path, engine="netcdf4") as root:  # the root says where the data are
+        assert not root.variables
+        assert root.attrs["data_groups"] == "runs maps"
+        assert 'group="maps"' in root.attrs["comment"] and "open_datatree" in root.attrs["comment"]
+    raw = _raw_variables(path)
+    for name, var in raw.items():
+        assert var.dtype is not str, f"{name} is a netCDF-4 string (vlen): char arrays only"
+        group, _, short = name.rpartition("/")
+        if short in var.dimensions:  # a variable named like its dimension: numeric, or a char label
+            assert var.dtype.kind in "iuf" or (var.dimensions == (short, f"{short}_strlen") and var.dtype == "S1"), name
+    for label in ("shape", "substrate"):
+        assert raw[f"maps/{label}"].dimensions == (label, f"{label}_strlen")
+        assert label in raw["maps/p_success"].attrs["coordinates"].split()  # a CF auxiliary coordinate (label)
+
+
+def test_plain_xarray_reads_the_study_file(study: Path) -> None:
+    """Plain xarray selects by label; open_result gives the same values, strings as str."""
+    plain_reader_checks(study)
+    runs, maps = open_result(study)
     assert maps["p_success"].sel(shape="cuboid", substrate="aluminum").dims == ("incline_deg",)
+    assert maps["shape"].dtype.kind == "U" and runs["shape"].dtype.kind == "U" and runs["error"].dtype.kind == "U"
+    with xr.open_dataset(study, group="maps", engine="netcdf4") as plain:
+        for name in maps.variables:
+            np.testing.assert_array_equal(plain[name].values.astype(maps[name].dtype), maps[name].values)
+            assert plain[name].attrs == maps[name].attrs, name
+
+
+@pytest.mark.parametrize("name", ["example.nc", "example_critical.nc"])
+def test_plain_xarray_reads_the_shipped_studies(name: str) -> None:
+    plain_reader_checks(ROOT / "data" / name)
+
+
+def _tiny_maps() -> tuple[xr.Dataset, xr.Dataset]:
+    maps = xr.Dataset(
+        {"p_success": (("shape", "incline_deg", "substrate"), np.arange(4.0).reshape(2, 2, 1), {"units": "1", "long_name": "P"})},
+        coords={"shape": ["cuboid", "spiked_ends"], "incline_deg": [0.0, 30.0], "substrate": ["aluminum"], "field_mT": 20.0},
+        attrs={"title": "maps"},
+    )
+    runs = xr.Dataset(
+        {"climbed": ("run", np.array([1, 0], np.int8)), "error": ("run", ["", "solver failed at t = 0.1 s"])},
+        coords={"run": [0, 1], "shape": ("run", ["cuboid", "spiked_ends"])},
+        attrs={"title": "runs"},
+    )
+    return runs, maps
+
+
+@pytest.mark.parametrize("form", ["label", "string"])
+def test_files_of_earlier_forms_still_open(tmp_path: Path, form: str) -> None:
+    """Labels as <dim>_label (before issue 46) or as netCDF-4 string coordinates (before that)."""
+    runs, maps = _tiny_maps()
+    path = tmp_path / f"{form}.nc"
+    xr.Dataset(attrs={"Conventions": "CF-1.10"}).to_netcdf(path, engine="netcdf4")
+    for group, ds in (("runs", runs), ("maps", maps)):
+        old = ds.rename_vars({d: f"{d}_label" for d in ("shape", "substrate") if d in ds.dims}) if form == "label" else ds
+        old.to_netcdf(path, mode="a", group=group, engine="netcdf4")
+    got_runs, got_maps = open_result(path)
+    xr.testing.assert_identical(got_maps, maps)
+    xr.testing.assert_identical(got_runs, runs)
+    assert float(got_maps["p_success"].sel(shape="spiked_ends", substrate="aluminum", incline_deg=30.0)) == 3.0
+    # tools/upgrade_result.py rewrites it in the current form, values unchanged
+    load_tool("upgrade_result").main([str(path), "--out", str(tmp_path / "new.nc")])
+    with xr.open_datatree(tmp_path / "new.nc", engine="netcdf4") as tree:
+        assert float(tree["maps"]["p_success"].sel(shape="spiked_ends", substrate="aluminum", incline_deg=30.0)) == 3.0
+        assert tree.attrs["Conventions"] == "CF-1.10" and "upgrade_result.py" in tree.attrs["history"]
+    new_runs, new_maps = open_result(tmp_path / "new.nc")
+    xr.testing.assert_identical(new_maps, maps)
+    xr.testing.assert_identical(new_runs, runs)
+
+
+def test_written_files_round_trip_through_open_result(tmp_path: Path) -> None:
+    runs, maps = _tiny_maps()
+    write_result(tmp_path / "new.nc", runs, maps, {"Conventions": "CF-1.10", "title": "t"})
+    got_runs, got_maps = open_result(tmp_path / "new.nc")
+    xr.testing.assert_identical(got_maps, maps)
+    xr.testing.assert_identical(got_runs, runs)
+    assert result_attrs(tmp_path / "new.nc")["data_groups"] == "runs maps"
+    raw = _raw_variables(tmp_path / "new.nc")
+    assert raw["runs/error"].dimensions == ("run", "error_strlen") and raw["runs/error"].dtype == "S1"
+    assert raw["runs/climbed"].attrs["coordinates"] == "shape"
+    assert set(raw["maps/p_success"].attrs["coordinates"].split()) == {"field_mT", "shape", "substrate"}
+    # tools/cf_groups.py: each group a file of its own for the CF checker, stored bytes unchanged
+    load_tool("cf_groups").main([str(tmp_path / "new.nc"), str(tmp_path / "cf"), "--cf18"])
+    with netCDF4.Dataset(tmp_path / "cf" / "new_maps.nc") as nc:
+        assert nc.variables["shape"].dimensions == ("shape", "shape_strlen") and nc.Conventions == "CF-1.8"
+        assert nc.title == "maps" and list(nc.variables["shape"][:]) == ["cuboid", "spiked_ends"]

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import tumblemc.study.threshold as TH
+from tests.study.test_cf import plain_reader_checks
 from tumblemc.io import open_result
 from tumblemc.model.rows import TimeGrid
 from tumblemc.study.config import ConfigError, load_config
@@ -177,6 +178,8 @@ def test_threshold_study_audits_itself(tmp_path: Path) -> None:
     """Every sample checked: the searched thresholds equal the direct sweeps', the maps follow from them."""
     res = run_study(tiny_threshold(), out=tmp_path / "t.nc", progress=False)
     runs, maps = open_result(res.path)
+    plain_reader_checks(res.path)  # xarray alone selects by label
+    assert list(runs["pair"].values) == ["last_pass", "first_fail"]
     a = runs.attrs
     assert a["audit_checked_samples"] == 4 and a["audit_thresholds_compared"] == 4
     assert a["audit_threshold_mismatches"] == 0 and a["audit_disagreements"] == 0

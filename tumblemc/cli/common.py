@@ -167,9 +167,11 @@ def add_set(p: argparse.ArgumentParser) -> None:
 
 def write_dataset(ds: Any, args: argparse.Namespace) -> int:
     """Write a protocol's or a calibration's Dataset to ``--out`` and, with ``--plot``, its figure next to it."""
+    from tumblemc.ncformat import write_dataset as write_netcdf
+
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    ds.to_netcdf(out)
+    write_netcdf(ds, out)
     print(f"wrote {out}")
     if args.plot:
         from tumblemc.viz.calibrate import plot_calibration

@@ -29,6 +29,7 @@ import xarray as xr
 
 from tumblemc.design.config import DesignConfig
 from tumblemc.design.evaluate import FRESH, SEARCH
+from tumblemc.ncformat import write_groups
 from tumblemc.version import __version__
 
 if TYPE_CHECKING:
@@ -176,7 +177,7 @@ def write_result(path: Path, s: Search, rec: int | None, means: np.ndarray | Non
     """Write the result atomically (a temporary file renamed over ``path``)."""
     tree = build_dataset(s, rec, means)
     tmp = path.with_name(path.name + ".tmp")
-    tree.to_netcdf(tmp, engine="netcdf4")
+    write_groups(tmp, tree.attrs, {name: node.to_dataset() for name, node in tree.children.items()})
     os.replace(tmp, path)
 
 
