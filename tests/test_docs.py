@@ -87,10 +87,14 @@ README_PY = [(path, start, code) for path in PYTHON_DOCS for start, code in fenc
 def _kind(code: str) -> str:
     if "dask_jobqueue" in code:
         return "cluster"
-    return "slow" if "run_study(" in code else "fast"
+    if "run_study(" in code:
+        return "slow"
+    return "smoke" if SMOKE_RESULT in code else "fast"  # smoke: the smoke study's file, made by the README's shell command
 
 
-MARKS = {"fast": [], "slow": [pytest.mark.slow], "cluster": [pytest.mark.skip("needs a SLURM cluster")]}
+#: the smoke study's result, which a block may open after the README's shell command made it
+SMOKE_RESULT = "results/smoke.nc"
+MARKS = {"fast": [], "slow": [pytest.mark.slow], "smoke": [pytest.mark.slow], "cluster": [pytest.mark.skip("needs a SLURM cluster")]}
 
 
 @pytest.mark.parametrize(
@@ -107,13 +111,17 @@ MARKS = {"fast": [], "slow": [pytest.mark.slow], "cluster": [pytest.mark.skip("n
 def test_readme_python_runs(code, tmp_path, monkeypatch, capsys):
     shutil.copytree(ROOT / "studies", tmp_path / "studies")
     monkeypatch.chdir(tmp_path)
+    if _kind(code) == "smoke":  # as `tumblemc study run studies/smoke.toml` leaves it
+        from tumblemc import load_config, run_study
+
+        run_study(load_config("studies/smoke.toml"), out=SMOKE_RESULT, progress=False)
     exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
     capsys.readouterr()
 
 
 def test_readme_has_python_of_every_kind():
     kinds = {_kind(code) for _, _, code in README_PY}
-    assert kinds == {"fast", "slow", "cluster"}
+    assert kinds == {"fast", "slow", "smoke", "cluster"}
     assert any(path.name == "README.md" for path, _, _ in README_PY)
 
 

@@ -184,7 +184,7 @@ def write_dataset(ds: Any, args: argparse.Namespace) -> int:
 
 
 #: what a cold compile costs, said before it starts (measured: docs/notes/performance.md, "Compile")
-COMPILE_ESTIMATE = "about 3 minutes on 2 idle cores, longer on a loaded machine; once per install"
+COMPILE_ESTIMATE = "1-4 minutes on 2 cores, by the machine's load; once per install"
 
 
 def warm_kernels_saying(say: bool = True, tick_s: float | None = None) -> float:
