@@ -373,7 +373,7 @@ def _run_locked(  # noqa: C901
         raise StudyAbortedError(
             f"{e}; {kept_words(path, chash)}: run the same command again to resume (if the workers die again: fewer "
             "--workers or more memory per worker, and the workers' logs)"
-        ) from None
+        ) from e.__cause__
     finally:
         bar.close()
     twins = {k: store.read(k, set_aside=False) for k in TWIN_KINDS} if len(twin_idx) else {}
