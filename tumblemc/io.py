@@ -23,7 +23,6 @@ import io
 import json
 import os
 import shutil
-import stat
 import uuid
 import zipfile
 from collections import Counter
@@ -63,7 +62,8 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
+def _atomic_write_bytes(path: Path, data: bytes, kept: str) -> None:
+    """Write ``data`` to ``path`` through a temporary and a rename; ``kept``: what a full disk leaves (for its message)."""
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
         with open(tmp, "xb") as fh:  # O_EXCL: never through a file or link already there
@@ -74,12 +74,17 @@ def _atomic_write_bytes(path: Path, data: bytes) -> None:
     except OSError as e:
         tmp.unlink(missing_ok=True)
         if e.errno == errno.ENOSPC:
-            raise ResultWriteError(
-                errno.ENOSPC,
-                f"no space left on the disk of {path.parent} ({_size(shutil.disk_usage(path.parent).free)} free) to write "
-                f"{path.name}; the finished runs are kept there: free space and run the same command again",
-            ) from e
+            raise no_space(path.parent, f"to write {path.name}", kept) from None
         raise
+
+
+def no_space(folder: Path, doing: str, kept: str, free: int | None = None) -> ResultWriteError:
+    """The one-line error of a full disk: where, how much is free, what is kept, what to do."""
+    free = shutil.disk_usage(folder).free if free is None else free
+    return ResultWriteError(
+        errno.ENOSPC,
+        f"no space left on the disk of {folder} ({_size(free)} free) {doing}; {kept}: free space and run the same command again",
+    )
 
 
 def _size(nbytes: float) -> str:
@@ -118,16 +123,31 @@ class ShardStore:
         self.config_hash = config_hash
         self.n_runs: int | None = None  # runs in the design, once known: a shard with others is set aside
 
-    def open(self, fresh: bool = False) -> None:
-        """Create the folder, or check that an existing one belongs to this config."""
+    def open(self, fresh: bool = False) -> int:
+        """Create the folder, or check that an existing one belongs to this config (:func:`check_parts_belong`).
+
+        A missing ``study.json`` is written from the config once every shard has proved
+        it belongs; returns how many shards did (0 when ``study.json`` was there or the
+        folder new).
+        """
         meta = self.dir / "study.json"
         if fresh and self.dir.exists():
             shutil.rmtree(self.dir)
         if meta.exists():
             check_parts_belong(self.dir, self.config_hash)
-            return
-        self.dir.mkdir(parents=True, exist_ok=True)
-        _atomic_write_bytes(meta, json.dumps({"config_hash": self.config_hash, "config": json.loads(self.config_json)}, indent=1).encode())
+            return 0
+        proved = check_parts_belong(self.dir, self.config_hash)
+        kept = f"the {proved} finished shards are kept in {self.dir}" if proved else "nothing was run yet"
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            if e.errno == errno.ENOSPC:
+                raise no_space(self.dir.parent, f"to create {self.dir.name}", kept) from None
+            raise
+        _atomic_write_bytes(
+            meta, json.dumps({"config_hash": self.config_hash, "config": json.loads(self.config_json)}, indent=1).encode(), kept
+        )
+        return proved
 
     def write(self, kind: str, run: np.ndarray, outcome: dict[str, np.ndarray]) -> Path:
         """Write one finished batch: ``run`` indices and outcome columns (same length).
@@ -143,7 +163,7 @@ class ShardStore:
         data = buf.getvalue()
         name = f"{kind}-{int(run[0]):09d}-{len(run)}-{shard_digest(self.config_hash, data)}{SHARD_SUFFIX}"
         path = self.dir / name
-        _atomic_write_bytes(path, data)
+        _atomic_write_bytes(path, data, f"the runs finished before are kept in {self.dir}")
         return path
 
     def read(self, kind: str, set_aside: bool = True) -> dict[str, np.ndarray]:
@@ -200,11 +220,24 @@ class ShardStore:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
-def check_parts_belong(folder: Path, config_hash: str) -> None:
-    """Raise :class:`StudyStateError` if the shard folder ``folder`` holds runs of another config (nothing is written)."""
+def check_parts_belong(folder: Path, config_hash: str) -> int:
+    """Raise :class:`StudyStateError` if the shard folder ``folder`` holds runs of another config (nothing is written).
+
+    Its ``study.json`` says which config; without one, every shard must prove by its
+    checksum (:func:`shard_digest`) that it belongs to this config. Returns the number of
+    shards that proved it (0 when ``study.json`` speaks for them).
+    """
     meta = folder / "study.json"
     if not meta.exists():
-        return
+        shards = sorted(folder.glob(f"*{SHARD_SUFFIX}"))
+        alien = [p for p in shards if not _proves(p, config_hash)]
+        if alien:
+            raise StudyStateError(
+                f"{folder} has lost its study.json (the record of the config its runs belong to) and {len(alien)} of its "
+                f"{len(shards)} shards do not prove they belong to this config (e.g. {alien[0].name}: another study's, damaged "
+                "or of an earlier version); nothing was changed: rerun with --fresh (fresh=True) to discard them, or give another --out"
+            )
+        return len(shards)
     stored = read_study_json(meta)
     if stored.get("config_hash") != config_hash:
         raise StudyStateError(
@@ -212,6 +245,15 @@ def check_parts_belong(folder: Path, config_hash: str) -> None:
             f"this config {config_hash[:12]}); rerun with --fresh (fresh=True) to discard them, "
             f"or give another --out"
         )
+    return 0
+
+
+def _proves(path: Path, config_hash: str) -> bool:
+    """Whether the shard ``path`` carries the checksum of its bytes under ``config_hash``."""
+    try:
+        return path.stem.rsplit("-", 1)[-1] == shard_digest(config_hash, path.read_bytes())
+    except OSError:
+        return False
 
 
 def read_study_json(meta: Path) -> dict[str, Any]:
@@ -277,84 +319,6 @@ def _same(a: Any, b: Any) -> bool:
     return bool(np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind in "fc"))
 
 
-class StudyLockedError(StudyStateError):
-    """Another process is running the study that writes the same result file."""
-
-
-class StudyLock:
-    """An exclusive lock on a result file while a study writes it (``<result>.lock``, POSIX ``flock``).
-
-    Released when the process ends, however it ends (``kill -9`` included), so a stale lock
-    never blocks a rerun. Where ``fcntl`` does not exist (Windows) nothing is locked.
-    """
-
-    def __init__(self, result: Path) -> None:
-        self.path = Path(result).with_name(Path(result).name + ".lock")
-        self._fh: Any = None
-
-    def __enter__(self) -> StudyLock:
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - Windows
-            return self
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        while True:
-            fh = self._open()
-            try:
-                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                fh.seek(0)
-                holder = fh.read().strip() or "another process"
-                fh.close()
-                raise StudyLockedError(
-                    f"{self.path.with_suffix('')} is being written by {holder}; wait for it to finish (rerun then resumes or "
-                    "reports it complete) or give another --out"
-                ) from None
-            try:  # the holder before us may have removed the file between our open and our lock: lock the new one
-                if os.stat(self.path).st_ino == os.fstat(fh.fileno()).st_ino:
-                    break
-            except FileNotFoundError:
-                pass
-            fh.close()
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"`tumblemc study run` (pid {os.getpid()}, started {_now()})")
-        fh.flush()
-        self._fh = fh
-        return self
-
-    def _open(self) -> Any:
-        """The lock file, opened (created if needed) without following a symlink.
-
-        A link planted at ``<out>.lock`` is refused and its target left untouched.
-        """
-        try:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
-        except OSError as e:
-            if self.path.is_symlink():
-                raise StudyLockedError(
-                    f"{self.path} is a symbolic link (to {os.readlink(self.path)}); tumblemc does not write through it. "
-                    "Remove it, or give another --out"
-                ) from None
-            raise StudyLockedError(f"cannot open the lock file {self.path}: {e.strerror}") from None
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            os.close(fd)
-            raise StudyLockedError(f"{self.path} is not a regular file; remove it, or give another --out")
-        return os.fdopen(fd, "r+")
-
-    def __exit__(self, *exc: object) -> None:
-        if self._fh is not None:
-            self.path.unlink(missing_ok=True)  # while still held (__enter__ checks it locked the file on disk)
-            self._fh.close()
-            self._fh = None
-
-
-def _now() -> str:
-    import datetime as _dt
-
-    return _dt.datetime.now().astimezone().replace(microsecond=0).isoformat()
-
-
 class ResultWriteError(OSError):
     """The final netCDF file could not be written (full disk, say); the shards are kept."""
 
@@ -386,9 +350,11 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
             os.fsync(fh.fileno())
         os.replace(tmp, path)
     except (OSError, RuntimeError) as e:
+        # the space free once the partial file is gone: netCDF may hold it open after a failed close
+        # (its blocks then return only when this process ends), so count them rather than measure after the unlink
+        free = shutil.disk_usage(path.parent).free + _allocated(tmp)
         tmp.unlink(missing_ok=True)
         need = runs.nbytes + maps.nbytes
-        free = shutil.disk_usage(path.parent).free
         full = getattr(e, "errno", None) == errno.ENOSPC or ("HDF error" in str(e) and free < max(2 * need, 64 * 2**20))
         what = f"no space left on the disk of {path.parent} ({_size(free)} free)" if full else str(e)
         raise ResultWriteError(
@@ -396,6 +362,15 @@ def write_result(path: Path, runs: xr.Dataset, maps: xr.Dataset, root_attrs: dic
             f"cannot write {path}: {what}. The finished runs are kept in {parts_dir(path)}; run the same command again to write the file",
         ) from e
     _fsync_dir(path.parent)
+
+
+def _allocated(path: Path) -> int:
+    """Bytes the file ``path`` occupies on its disk (0 if it is not there)."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return 0
+    return int(getattr(st, "st_blocks", 0) * 512) or st.st_size
 
 
 def open_result(path: str | Path) -> tuple[xr.Dataset, xr.Dataset]:
@@ -455,8 +430,6 @@ def write_run(ds: xr.Dataset, path: str | Path) -> None:
 __all__ = [
     "ResultWriteError",
     "ShardStore",
-    "StudyLock",
-    "StudyLockedError",
     "StudyStateError",
     "netcdf_ready",
     "open_result",

@@ -24,10 +24,11 @@ import xarray as xr
 import tumblemc
 from tests.study.test_engine import _to_toml, assert_same_result, tiny
 from tumblemc.cli import main
-from tumblemc.io import ResultWriteError, StudyLock, StudyLockedError, StudyStateError, parts_dir, shard_digest
+from tumblemc.io import ResultWriteError, StudyStateError, parts_dir, shard_digest
 from tumblemc.study.checks import ConfigError
 from tumblemc.study.config import load_config
 from tumblemc.study.engine import run_study, study_status
+from tumblemc.study.lock import StudyLock, StudyLockedError
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -214,52 +216,106 @@ def run(args: argparse.Namespace) -> int:
     return _run(args)
 
 
-def _run(args: argparse.Namespace) -> int:
-    import os
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is, so that it ends as Ctrl-C does (lock released, cluster closed, a message)."""
 
-    from tumblemc.io import StudyLock
-    from tumblemc.study.cluster import command_client
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a second SIGTERM ends the process at once
+    raise Terminated
+
+
+def _run(args: argparse.Namespace) -> int:
+    """``study run``: every fault ends in one line that says what is kept and what to do (``docs/guide/faults.md``)."""
     from tumblemc.study.config import load_config
-    from tumblemc.study.engine import default_output, run_study, study_status
+    from tumblemc.study.engine import default_output
+    from tumblemc.study.faults import StudyAbortedError, kept_words
+    from tumblemc.study.identity import config_hash
 
     cfg = load_config(args.config)
     path = Path(args.out) if args.out else default_output(cfg)
+    handle = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread only
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) if handle else None
+    try:
+        res, wrote = _run_study(args, cfg, path)
+    except KeyboardInterrupt as e:
+        what = "terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted"
+        print(f"\n{what}: {kept_words(path, config_hash(cfg))}; run the same command again to resume", file=sys.stderr)
+        return 143 if isinstance(e, Terminated) else 130
+    except StudyAbortedError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    finally:
+        if handle:
+            signal.signal(signal.SIGTERM, previous)
+    print(f"{'wrote' if wrote else 'complete, read-only (nothing written):'} {res.path}")
+    _report(res.path, res, args.plot)
+    return 0
+
+
+def _run_study(args: argparse.Namespace, cfg: Any, path: Path) -> tuple[Any, bool]:
+    """Lock the output, check the config against what is there, compile, start the workers, run.
+
+    Returns the result and whether the folder could be written (False: a complete result on read-only media).
+    """
+    import os
+
+    from tumblemc.io import check_parts_belong, parts_dir
+    from tumblemc.study.cluster import command_client
+    from tumblemc.study.engine import complete, run_study
+    from tumblemc.study.identity import config_hash
+    from tumblemc.study.lock import ReadOnlyOutputError, StudyLock
+
     workers = args.workers if args.workers is not None else cfg.execution.workers
     n_workers = int(workers or os.cpu_count() or 1)
     procs = f"{n_workers} worker process" + ("es" if n_workers > 1 else "")
     where = args.scheduler or ("this process (no dask)" if workers == 0 else f"a local dask cluster of {procs}")
     say = not args.no_progress
     path.parent.mkdir(parents=True, exist_ok=True)
-    with StudyLock(path):  # before anything is compiled or started: a second run on this output stops here
+    lock = StudyLock(path)
+    try:
+        lock.__enter__()  # before anything is compiled or started: a second run on this output stops here
+    except ReadOnlyOutputError as e:  # a finished study on read-only media is reported; anything else cannot go on
+        done = None if args.fresh else complete(cfg, path, say)
+        if done is None:
+            raise ReadOnlyOutputError(f"{e}{_parts_words(path, config_hash(cfg))}") from None
+        return done, False
+    try:
         if not args.fresh:  # a changed config is refused before the header and the compilation
-            from tumblemc.io import check_parts_belong, parts_dir
-            from tumblemc.study.identity import config_hash
-
             check_parts_belong(parts_dir(path), config_hash(cfg))
         if say:
             print(study_header(cfg, path, where), file=sys.stderr, flush=True)
-        try:
-            if not args.scheduler:  # a remote cluster's workers compile their own
-                warm_kernels_saying(say)  # the local cluster's workers then load them from the cache
-            with command_client(args.scheduler, workers, args.dashboard) as client:
-                if client is not None and args.dashboard and not args.scheduler:
-                    print(f"dask dashboard: {client.dashboard_link}" + _bokeh_note(), file=sys.stderr, flush=True)
-                res = run_study(cfg, client, out=path, fresh=args.fresh, progress=say, batch_size=args.batch_size, lock=False)
-        except KeyboardInterrupt:
-            print("\ninterrupted: finished runs are kept; run the same command again to resume", file=sys.stderr)
-            return 130
-    print(f"wrote {res.path}")
-    print(format_table(study_status(res.path)))
+        if not args.scheduler:  # a remote cluster's workers compile their own
+            warm_kernels_saying(say)  # the local cluster's workers then load them from the cache
+        with command_client(args.scheduler, workers, args.dashboard) as client:
+            if client is not None and args.dashboard and not args.scheduler:
+                print(f"dask dashboard: {client.dashboard_link}" + _bokeh_note(), file=sys.stderr, flush=True)
+            return run_study(cfg, client, out=path, fresh=args.fresh, progress=say, batch_size=args.batch_size, lock=False), True
+    finally:
+        lock.__exit__(None, None, None)
+
+
+def _parts_words(path: Path, chash: str) -> str:
+    from tumblemc.io import parts_dir
+    from tumblemc.study.faults import kept_words
+
+    return f" ({kept_words(path, chash)})" if parts_dir(path).exists() else ""
+
+
+def _report(path: Path, res: Any, plot: bool) -> None:
+    """The status table, P(success) per shape and substrate, and the plots if asked."""
+    from tumblemc.study.engine import study_status
+
+    print(format_table(study_status(path)))
     table = success_table(res.maps)
     if table:
         print()
         print(table)
-    if args.plot:
+    if plot:
         from tumblemc.viz.study import plot_study
 
         for p in plot_study(res.runs, res.maps, res.path.with_name(res.path.stem + "_plots")):
             print(f"wrote {p}")
-    return 0
 
 
 def _bokeh_note() -> str:

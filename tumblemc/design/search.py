@@ -46,7 +46,8 @@ from tumblemc.analysis.confseq import cs_interval
 from tumblemc.design.config import DesignConfig
 from tumblemc.design.evaluate import FRESH, SEARCH, Chunk, Estimate, estimate, execute
 from tumblemc.design.strategies import initial, model_best, propose, require
-from tumblemc.io import StudyLock, StudyStateError
+from tumblemc.io import StudyStateError
+from tumblemc.study.lock import StudyLock
 
 SCHEME = "tumblemc-design-1"
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import shutil
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -37,7 +36,6 @@ from tumblemc.analysis.critical import expand_to_grid
 from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.io import (
     ShardStore,
-    StudyLock,
     StudyStateError,
     open_result,
     parts_dir,
@@ -51,7 +49,9 @@ from tumblemc.study.assemble import assemble_critical, assemble_runs, provenance
 from tumblemc.study.cluster import local_client, n_workers, warm_kernels  # noqa: F401  (re-exported)
 from tumblemc.study.config import StudyConfig, load_config
 from tumblemc.study.design import check_inclines, check_mask, check_subset, design, grid_of, n_check_runs
+from tumblemc.study.faults import StudyAbortedError, finish, kept_words, lost_task, tidy_finished
 from tumblemc.study.identity import config_hash, config_to_json
+from tumblemc.study.lock import ReadOnlyOutputError, StudyLock
 from tumblemc.study.progress import Progress
 from tumblemc.study.status import default_output, study_status  # noqa: F401  (study_status re-exported)
 from tumblemc.study.tasks import Task, design_rows, execute_task, one_run_tasks  # noqa: F401  (re-exported)
@@ -189,7 +189,11 @@ def _execute(
             if ac.count() >= max_in_flight:
                 break
         for fut in ac:
-            on_result(*fut.result())
+            try:
+                result = fut.result()
+            except Exception as e:  # the cluster lost the task (its workers died, say): said in words by run_study
+                raise lost_task(next(t for t in tasks if t.key == fut.key), e) from e
+            on_result(*result)
             fut.release()
             nxt = next(it, None)
             if nxt is not None:
@@ -243,8 +247,26 @@ def run_study(
     path.parent.mkdir(parents=True, exist_ok=True)
     if not lock:  # the caller holds StudyLock(path)
         return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
-    with StudyLock(path):  # a second `study run` on the same output is refused, not joined
-        return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
+    try:
+        with StudyLock(path):  # a second `study run` on the same output is refused, not joined
+            return _run_locked(cfg, client, path, fresh, progress, batch_size, max_in_flight)
+    except ReadOnlyOutputError:
+        done = None if fresh else complete(cfg, path, progress)
+        if done is None:
+            raise
+        return done
+
+
+def complete(cfg: StudyConfig, path: Path, progress: bool = True) -> StudyResult | None:
+    """The result at ``path`` if it is a complete study of ``cfg`` (said on stderr), else None; writes nothing.
+
+    This is what ``study run`` reports for a finished study, read-only media included.
+    """
+    if not path.exists() or result_attrs(path).get("config_hash") != config_hash(cfg):
+        return None
+    runs, maps = open_result(path)
+    _say(progress, f"{path} is complete ({runs.sizes['run']} runs); nothing to do")
+    return StudyResult(runs, maps, path)
 
 
 def _run_locked(  # noqa: C901
@@ -254,18 +276,19 @@ def _run_locked(  # noqa: C901
     for t in remove_stale_temps(path):
         _say(progress, f"removed {t.name}, left by an interrupted final write")
     if path.exists() and not fresh:
+        done = complete(cfg, path, progress)
+        if done is not None:
+            tidy_finished(path, chash, lambda m: _say(progress, m))
+            return done
         stored = result_attrs(path).get("config_hash")
-        if stored == chash:
-            runs, maps = open_result(path)
-            _say(progress, f"{path} is complete ({runs.sizes['run']} runs); nothing to do")
-            return StudyResult(runs, maps, path)
         if _parts_hash(path) != chash:  # an interrupted run of this config may replace it
             raise StudyStateError(
                 f"{path} holds a study with a different config (hash {str(stored)[:12]}, this config {chash[:12]}); "
                 "use --fresh (fresh=True) to replace it, or another --out"
             )
     store = ShardStore(path, cjson, chash)
-    store.open(fresh=fresh)
+    if store.open(fresh=fresh):
+        _say(progress, f"{store.dir}/study.json was missing: written again from the config (every shard carries its hash)")
 
     des = design(cfg)
     n = des.sizes["run"]
@@ -346,6 +369,11 @@ def _run_locked(  # noqa: C901
         todo_twin = {k: np.setdiff1d(twin_idx, _done(store, k, progress)) for k in TWIN_KINDS}
         bar.expect(int(bar.bar.total or 0) + sum(len(t) for t in todo_twin.values()))
         _execute([t for k, idx in todo_twin.items() for t in plan(cfg, des, k, idx, bs, chash)], client, on_result, mif)
+    except StudyAbortedError as e:
+        raise StudyAbortedError(
+            f"{e}; {kept_words(path, chash)}: run the same command again to resume (if the workers die again: fewer "
+            "--workers or more memory per worker, and the workers' logs)"
+        ) from e.__cause__
     finally:
         bar.close()
     twins = {k: store.read(k, set_aside=False) for k in TWIN_KINDS} if len(twin_idx) else {}
@@ -372,13 +400,7 @@ def _run_locked(  # noqa: C901
     # the root holds these (CF 2.7: a group's attributes apply to it and its descendants);
     # each group keeps its own and config_hash (assemble_runs, analysis.maps.maps)
     write_result(path, runs, maps, attrs)
-    damaged = store.dir / "damaged"
-    if damaged.exists():  # kept for inspection: the shards were replaced by recomputed runs
-        keep = path.with_name(path.name + ".damaged")
-        shutil.rmtree(keep, ignore_errors=True)
-        os.replace(damaged, keep)
-        _say(True, f"the damaged shards set aside are in {keep}")
-    store.remove()
+    finish(store, path, lambda m: _say(True, m))
     return StudyResult(runs, maps, path)
 
 
