@@ -192,6 +192,9 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
     for k in ("lower", "upper", "low", "high", "mode"):
         if k in a and not (r.lo <= a[k] <= r.hi):
             raise config_error(f"{key}.{k}", a[k], f"is outside the physical range of {param}", describe_interval(r.lo, r.hi))
+    for k in ("mean", "lower", "upper", "low", "high", "mode"):
+        if k in a and not r.plausible_lo <= a[k] <= r.plausible_hi:
+            raise config_error(f"{key}.{k}", a[k], f"is implausible for {param}", f"{r.describe_plausible()}; {r.why}")
     lo, hi = a.get("lower", r.lo), a.get("upper", r.hi)
     if ("lower" in a or "upper" in a) and not lo < hi:
         k = "upper" if "upper" in a else "lower"
@@ -202,7 +205,23 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
         raise config_error(f"{key}.rel_high", a["rel_high"], "is not above rel_low", f"a number > rel_low = {a['rel_low']:g}")
 
 
-def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # noqa: C901
+def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:
+    """:func:`_restricted`, refused unless every value it can draw is plausible (``RANGES``)."""
+    r, key = RANGES[u.param], f"uncertain.{u.param}"
+    with np.errstate(all="ignore"):
+        pd = _restricted(u, nominal, where)
+        ends = pd.ppf(np.array([0.0, 1.0]))  # the extreme draws: the uniforms are kept in [U_EPS, 1 - U_EPS]
+    if not r.plausible(ends).all():
+        spec = ", ".join(f"{k} = {v:g}" for k, v in u.args)
+        raise ConfigError(
+            key,
+            f"{key} (dist={u.dist!r}, {spec}){f' for {where}' if where else ''} draws values from {ends[0]:.4g} to {ends[1]:.4g} "
+            f"{r.units} (allowed: every draw in {r.describe_plausible()}, {r.why}; a smaller spread)",
+        )
+    return pd
+
+
+def _restricted(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # noqa: C901
     r = RANGES[u.param]
     a = dict(u.args)
     key = f"uncertain.{u.param}"
@@ -242,7 +261,7 @@ def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # 
                 f"{key}.dist='lognormal' needs a mean > 0 but the nominal {u.param} is {nominal:g}{at} (allowed: an absolute 'mean' > 0)",
             )
         cv = a["sd"] / mean if "sd" in a else a["cv"]
-        s2 = math.log1p(cv * cv)
+        s2 = math.log1p(min(cv * cv, 1e300))  # a cv beyond 1e150 is refused by its draws (_resolve)
         dist = stats.lognorm(math.sqrt(s2), scale=mean / math.sqrt(1.0 + cv * cv))
         c_hi = 1.0
         if math.isfinite(r.hi):
