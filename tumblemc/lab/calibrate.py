@@ -59,7 +59,7 @@ from tumblemc.lab import mcmc as mc
 from tumblemc.lab import protocols as lab
 from tumblemc.lab.benchdata import KINDS, BenchData, read_bench, write_bench
 from tumblemc.lab.diagnostics import diagnostic_lines, weakest_direction
-from tumblemc.model.params import RANGES, get_preset
+from tumblemc.model.params import RANGES, check_vector, get_preset
 from tumblemc.version import __version__
 
 MODELS = ("auto", "simulate", "closed-form")
@@ -185,6 +185,8 @@ def calibrate(  # noqa: C901
     bench = data if isinstance(data, BenchData) else read_bench(data)
     sc = cb.check_free(free, bounds, preset)
     cb.check_request(free, fixed, preset, n_posterior, len(bench.y) + GRID_POINTS)
+    if not float(np.linalg.norm(check_vector("direction", direction))) > 0.0:
+        raise ValueError(f"direction={tuple(direction)!r} is not allowed (allowed: a nonzero 3-vector, world frame)")
     names, p = list(sc.names), len(sc.names)
     if model not in MODELS:
         raise ValueError(f"model={model!r} is not allowed (allowed: {', '.join(MODELS)})")

@@ -192,9 +192,6 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
     for k in ("lower", "upper", "low", "high", "mode"):
         if k in a and not (r.lo <= a[k] <= r.hi):
             raise config_error(f"{key}.{k}", a[k], f"is outside the physical range of {param}", describe_interval(r.lo, r.hi))
-    for k in ("mean", "lower", "upper", "low", "high", "mode"):
-        if k in a and not r.plausible_lo <= a[k] <= r.plausible_hi:
-            raise config_error(f"{key}.{k}", a[k], f"is implausible for {param}", f"{r.describe_plausible()}; {r.why}")
     lo, hi = a.get("lower", r.lo), a.get("upper", r.hi)
     if ("lower" in a or "upper" in a) and not lo < hi:
         k = "upper" if "upper" in a else "lower"
@@ -206,17 +203,22 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
 
 
 def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:
-    """:func:`_restricted`, refused unless every value it can draw is plausible (``RANGES``)."""
+    """:func:`_restricted`, refused if it can draw a non-finite value or puts more than NEGLIGIBLE_MASS outside the plausible range.
+
+    The plausible range is :data:`RANGES`' (a run with a value outside it is refused and
+    recorded as failed), so at most a NEGLIGIBLE_MASS share of a study's runs can fail so.
+    """
     r, key = RANGES[u.param], f"uncertain.{u.param}"
     with np.errstate(all="ignore"):
         pd = _restricted(u, nominal, where)
-        ends = pd.ppf(np.array([0.0, 1.0]))  # the extreme draws: the uniforms are kept in [U_EPS, 1 - U_EPS]
-    if not r.plausible(ends).all():
+        ends = pd.ppf(np.array([0.0, NEGLIGIBLE_MASS, 1.0 - NEGLIGIBLE_MASS, 1.0]))  # 0, 1: the extreme draws (U_EPS)
+    if not (np.isfinite(ends).all() and r.plausible(ends[1:3]).all()):
         spec = ", ".join(f"{k} = {v:g}" for k, v in u.args)
         raise ConfigError(
             key,
-            f"{key} (dist={u.dist!r}, {spec}){f' for {where}' if where else ''} draws values from {ends[0]:.4g} to {ends[1]:.4g} "
-            f"{r.units} (allowed: every draw in {r.describe_plausible()}, {r.why}; a smaller spread)",
+            f"{key} (dist={u.dist!r}, {spec}){f' for {where}' if where else ''} draws from {ends[0]:.4g} to {ends[3]:.4g} "
+            f"{r.units}, its {NEGLIGIBLE_MASS:g} and {1 - NEGLIGIBLE_MASS:g} quantiles {ends[1]:.4g} and {ends[2]:.4g} (allowed: "
+            f"finite draws, at most {NEGLIGIBLE_MASS:g} of them outside {r.describe_plausible()}, {r.why}; a smaller spread)",
         )
     return pd
 

@@ -92,7 +92,7 @@ def load_posterior(value: Any, base: Path | None = None) -> Posterior:
             raise ConfigError(
                 key,
                 f"{key}: {path}: {n} has {int(bad.sum())} of {len(draws)} draws outside {r.describe_plausible()}, the first "
-                f"{draws[i, j]!r} (sample {i}) (allowed: every draw a value Params accepts; {r.why or 'the physical range'})",
+                f"{float(draws[i, j])!r} (sample {i}) (allowed: every draw a value Params accepts; {r.why or 'the physical range'})",
             )
     return Posterior(str(path.resolve()), digest, names, draws, shape, preset)
 
