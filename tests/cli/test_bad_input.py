@@ -360,9 +360,9 @@ def test_the_presets_and_a_given_solver_pass() -> None:
         run_inputs(preset=p, duration_s=0.01, solver=SolverOptions())
 
 
-#: plausible extremes, with durations short enough for the slow tier
+#: plausible extremes (each alone at a bound of RANGES), with durations that keep the slow tier short
 EXTREMES: list[dict[str, Any]] = [
-    {"mass": 1e-12, "duration_s": 5e-4},
+    {"mass": 1e-12, "duration_s": 2e-3},
     {"mass": 1.0},
     {"F_elect": 1.0},
     {"mu": 100.0},
@@ -371,21 +371,21 @@ EXTREMES: list[dict[str, Any]] = [
     {"g": 0.01},
     {"g": 1000.0},
     {"field_mT": 1000.0},
-    {"freq_hz": 10_000.0, "duration_s": 2e-4},
-    {"omega0": (1e5, 0.0, 0.0), "duration_s": 2e-3},
+    {"freq_hz": 10_000.0, "duration_s": 2e-3},
+    {"omega0": (1e5, 0.0, 0.0), "duration_s": 5e-3},
     {"v0": (0.0, 1.0, 0.0)},
     {"e_t": 1e-3},
     {"e_o": 1e3},
     {"e_r": 1e-9},
     {"magnetization": 2e6},
-    {"V_m": 1e-6, "duration_s": 1e-3},
+    {"V_m": 1e-6, "duration_s": 0.02},
 ]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("kw", EXTREMES, ids=lambda kw: ",".join(kw))
 def test_accepted_extremes_finish_or_are_refused_within_ten_seconds(kw: dict[str, Any]) -> None:
-    kw = {"duration_s": 0.02, **kw}
+    kw = {"duration_s": 0.2, **kw}
     t0 = time.perf_counter()
     try:
         ds = simulate(**kw)
