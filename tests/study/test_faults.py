@@ -170,13 +170,18 @@ def test_configs_no_run_could_finish_are_refused_at_validation(
     assert not parts_dir(out).exists() and not out.exists()
 
 
-def test_the_bounds_are_overridable_in_execution() -> None:
+def test_the_bounds_are_overridable_in_execution(monkeypatch: pytest.MonkeyPatch) -> None:
     cfg = tiny(dt=1e-9)
     cfg["execution"] = {"max_steps_per_run": 10**10, "max_run_memory_gib": 1e3}
     assert load_config(cfg).dt == 1e-9
-    big = tiny(samples=1_000_000, incline_deg={"start": 0, "stop": 89, "step": 0.1})
+    monkeypatch.setattr("tumblemc.study.budget.usable_memory", lambda: 64 * 2**30)  # the machine's memory, fixed
+    big = tiny(samples=10_000, incline_deg={"start": 0, "stop": 89, "step": 0.1})  # 8.9 million runs
     big["execution"] = {"max_runs": 10**10}
-    assert load_config(big).samples == 1_000_000
+    assert load_config(big).samples == 10_000
+    # raising max_runs does not lift the memory the design table needs (counted before it is built)
+    big["samples"] = 1_000_000
+    with pytest.raises(ConfigError, match=r"samples=1000000 gives 891,000,000 runs whose design table alone needs about"):
+        load_config(big)
 
 
 def test_a_full_disk_in_the_final_write_is_one_clear_line_and_resumes(

@@ -60,23 +60,16 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run one simulation, write it (and its figure), print its summary; returns the exit status (1: the run is not valid)."""
     from tumblemc.model.outcome import summarize
-    from tumblemc.model.run import simulate
+    from tumblemc.model.plausible import run_notes
+    from tumblemc.model.run import run_inputs, simulate
 
     overrides = parse_overrides(args.overrides)
     out = Path(args.out)
-    ds = simulate(
-        shape=args.shape,
-        preset=args.preset,
-        incline_deg=args.incline_deg,
-        field_mT=args.field_mT,
-        freq_hz=args.freq_hz,
-        duration_s=args.duration_s,
-        dt=args.dt,
-        torque=args.torque,
-        rotation=args.rotation,
-        record_every=args.record_every,
-        **overrides,
-    )
+    kw = {k: getattr(args, k) for k in ("shape", "preset", "incline_deg", "field_mT", "freq_hz", "duration_s", "dt")}
+    kw.update(torque=args.torque, rotation=args.rotation, record_every=args.record_every, **overrides)
+    for note in run_notes(run_inputs(**kw)):  # valid, but maybe not what was meant
+        print(f"note: {note}", file=sys.stderr)
+    ds = simulate(**kw)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_run(ds, out)
     print(f"wrote {out}")

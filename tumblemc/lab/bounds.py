@@ -11,12 +11,13 @@ value the data rule out.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from tumblemc.lab.mcmc import Scales
-from tumblemc.model.params import NUMERIC_FIELDS, RANGES, get_preset
+from tumblemc.model.params import NUMERIC_FIELDS, RANGES, Params, get_preset
 
 #: default bounds (lo, hi, log scale) where the physical range of :data:`RANGES` is too wide
 #: to sample: the magnetisation within 90 deg of the length axis, friction 0.01 to 1.5 (linear: a decade or two at most)
@@ -36,11 +37,41 @@ def default_bounds(name: str, preset: str = "paper") -> tuple[float, float, bool
     if name in PHYSICAL_BOUNDS:
         return PHYSICAL_BOUNDS[name]
     r, v = RANGES[name], float(getattr(get_preset(preset), name))
-    if r.lo == 0.0 and v > 0.0 and r.hi >= 100.0 * v:
-        return v * 10.0**-SCALE_DECADES, min(v * 10.0**SCALE_DECADES, r.hi), True
-    if math.isfinite(r.lo) and math.isfinite(r.hi):
-        return r.lo, r.hi, False
+    lo, hi = max(r.lo, r.plausible_lo), min(r.hi, r.plausible_hi)  # plausible values only (RANGES)
+    if r.lo == 0.0 and v > 0.0 and hi >= 100.0 * v:
+        return max(v * 10.0**-SCALE_DECADES, lo), min(v * 10.0**SCALE_DECADES, hi), True
+    if math.isfinite(r.lo) and math.isfinite(r.hi):  # a physically finite range (a plausible one is no scale)
+        return lo, hi, False
     raise ValueError(f"{name} = {v:g} in preset {preset!r} sets no scale for default bounds (allowed: give them, --bounds {name}=LO:HI)")
+
+
+#: posterior draws a calibration may ask for: fewer than 100 leave 2 draws beyond each end of
+#: a 95% interval; more than 10^5 add nothing a study can use and cost memory (below)
+MIN_DRAWS, MAX_DRAWS = 100, 100_000
+#: memory a calibration's draws may take (model values at the data and the grid, a few copies)
+MAX_DRAW_BYTES = 2 * 2**30
+
+
+def check_request(free: Sequence[str], fixed: Mapping[str, Any], preset: str, n_posterior: Any, n_points: int) -> None:
+    """Refuse a calibration that cannot run before it costs: bad fixed values, a field both free and fixed, a draw count out of range.
+
+    ``fixed`` holds the ``--set`` values (Params fields are checked by :class:`Params`
+    itself; the others go to the bench protocol), ``n_points`` the data and grid points
+    each draw is evaluated at.
+    """
+    params = {k: v for k, v in fixed.items() if k in Params.field_names()}
+    get_preset(preset).replace(**params)  # a ValueError naming the field, the value and the range
+    both = [nm for nm in free if nm in fixed]
+    if both:
+        raise ValueError(f"{both[0]} is both free and fixed (--set {both[0]}=...) (allowed: each parameter free or fixed, not both)")
+    if isinstance(n_posterior, bool) or not isinstance(n_posterior, (int, np.integer)) or not MIN_DRAWS <= n_posterior <= MAX_DRAWS:
+        raise ValueError(f"samples={n_posterior!r} is not allowed (allowed: an integer in [{MIN_DRAWS}, {MAX_DRAWS:,}] posterior draws)")
+    need = 4 * 8 * int(n_posterior) * n_points
+    if need > MAX_DRAW_BYTES:
+        raise ValueError(
+            f"samples={n_posterior} draws at {n_points} points need about {need / 2**30:.2g} GiB "
+            f"(allowed: at most {MAX_DRAW_BYTES / 2**30:.0f} GiB; fewer draws or data rows)"
+        )
 
 
 def check_free(free: Sequence[str], bounds: dict[str, tuple[float, float]] | None, preset: str) -> Scales:
@@ -57,8 +88,14 @@ def check_free(free: Sequence[str], bounds: dict[str, tuple[float, float]] | Non
         r = RANGES[name]
         if bounds and name in bounds:
             a, b = (float(v) for v in bounds[name])
+            if not (math.isfinite(a) and math.isfinite(b)):
+                raise ValueError(f"bounds of {name} = ({a:g}, {b:g}) are not finite (allowed: finite bounds in {r.describe_plausible()})")
             if not (r.lo <= a and b <= r.hi):
                 raise ValueError(f"bounds of {name} = ({a:g}, {b:g}) leave the physical range (allowed: {r.lo:g} to {r.hi:g} {r.units})")
+            if not r.plausible(np.array([a, b])).all():
+                raise ValueError(
+                    f"bounds of {name} = ({a:g}, {b:g}) leave the plausible range (allowed: {r.describe_plausible()}; {r.why})"
+                )
             is_log = default_bounds(name, preset)[2] and a > 0.0  # a scale parameter whose bounds exclude 0
         else:
             a, b, is_log = default_bounds(name, preset)
@@ -75,10 +112,10 @@ def widen_flag(sc: Scales, j: int, side: int) -> str:
     nm, r = sc.names[j], RANGES[sc.names[j]]
     lo, hi = float(sc.lo[j]), float(sc.hi[j])
     if sc.log[j]:
-        lo, hi = (lo / 10.0, hi) if side == 0 else (lo, hi * 10.0)
+        lo, hi = (max(lo / 10.0, r.plausible_lo), hi) if side == 0 else (lo, min(hi * 10.0, r.plausible_hi))
     else:
         w = 0.5 * (hi - lo)
-        lo, hi = (max(lo - w, r.lo), hi) if side == 0 else (lo, min(hi + w, r.hi))
+        lo, hi = (max(lo - w, r.lo, r.plausible_lo), hi) if side == 0 else (lo, min(hi + w, r.hi, r.plausible_hi))
     return f"--bounds {nm}={lo:.4g}:{hi:.4g}"
 
 
@@ -112,4 +149,16 @@ def bound_messages(sc: Scales, z_opt: np.ndarray, z: np.ndarray, values: np.ndar
     return press, ruled
 
 
-__all__ = ["PHYSICAL_BOUNDS", "PRESS_SHARE", "PRESS_ZONE", "SCALE_DECADES", "bound_messages", "check_free", "default_bounds", "widen_flag"]
+__all__ = [
+    "MAX_DRAWS",
+    "MIN_DRAWS",
+    "PHYSICAL_BOUNDS",
+    "PRESS_SHARE",
+    "PRESS_ZONE",
+    "SCALE_DECADES",
+    "bound_messages",
+    "check_free",
+    "check_request",
+    "default_bounds",
+    "widen_flag",
+]

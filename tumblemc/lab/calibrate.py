@@ -45,12 +45,10 @@ the estimate, the covariance and the diagnostics.
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -59,15 +57,11 @@ import xarray as xr
 from tumblemc.lab import bounds as cb
 from tumblemc.lab import mcmc as mc
 from tumblemc.lab import protocols as lab
-from tumblemc.model.params import RANGES, get_preset
+from tumblemc.lab.benchdata import KINDS, BenchData, read_bench, write_bench
+from tumblemc.lab.diagnostics import diagnostic_lines, weakest_direction
+from tumblemc.model.params import RANGES, check_vector, get_preset
 from tumblemc.version import __version__
 
-#: header -> (test, x column, y column, y units)
-KINDS: dict[tuple[str, str], tuple[str, str, str, str]] = {
-    ("field_mT", "tilt_deg"): ("static_tilt", "field_mT", "tilt_deg", "degree"),
-    ("freq_hz", "speed_mm_s"): ("speed", "freq_hz", "speed_mm_s", "mm s-1"),
-    ("incline_deg", "climbed"): ("critical_incline", "incline_deg", "climbed", "1"),
-}
 MODELS = ("auto", "simulate", "closed-form")
 N_POSTERIOR = 2000
 COARSE_STEP = 1e-2  # the second Jacobian's step, in bound widths (the fit's is 1e-3)
@@ -80,54 +74,6 @@ BAND_NAMES = {
     "predictive_lo": "2.5% quantile of new data (posterior predictive)",
     "predictive_hi": "97.5% quantile of new data (posterior predictive)",
 }
-
-
-@dataclass(frozen=True)
-class BenchData:
-    """One bench test's data: ``test`` (static_tilt or speed), ``x`` and ``y`` columns."""
-
-    test: str
-    x_name: str
-    y_name: str
-    y_units: str
-    x: np.ndarray
-    y: np.ndarray
-    source: str
-
-
-def read_bench(path: str | os.PathLike[str]) -> BenchData:
-    """Read a bench CSV; raise ValueError naming the file, the line and the problem."""
-    with open(path, newline="", encoding="utf-8") as fh:
-        rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
-    if not rows:
-        raise ValueError(f"{path}: empty (allowed: a header such as field_mT,tilt_deg and data rows)")
-    header = tuple(c.strip() for c in rows[0])
-    if header not in KINDS:
-        allowed = "; ".join(",".join(k) for k in KINDS)
-        raise ValueError(f"{path}: header {','.join(header)!r} is not a bench test (allowed: {allowed})")
-    test, xn, yn, yu = KINDS[header]
-    vals = []
-    for i, r in enumerate(rows[1:], start=2):
-        try:
-            x, y = (float(v) for v in r)
-        except ValueError:
-            raise ValueError(f"{path}, line {i}: {','.join(r)!r} is not two numbers") from None
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise ValueError(f"{path}, line {i}: {','.join(r)!r} is not finite")
-        vals.append((x, y))
-    if len(vals) < 2:
-        raise ValueError(f"{path}: {len(vals)} data row(s) (allowed: at least 2)")
-    arr = np.asarray(vals)
-    return BenchData(test, xn, yn, yu, arr[:, 0], arr[:, 1], os.fspath(path))
-
-
-def write_bench(path: str | os.PathLike[str], x_name: str, y_name: str, x: Sequence[float], y: Sequence[float]) -> None:
-    """Write bench data in the format :func:`read_bench` reads."""
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow([x_name, y_name])
-        for a, b in zip(x, y, strict=True):
-            w.writerow([f"{a:.10g}", f"{b:.10g}"])
 
 
 def forward_model(
@@ -238,6 +184,9 @@ def calibrate(  # noqa: C901
     t_start = time.perf_counter()
     bench = data if isinstance(data, BenchData) else read_bench(data)
     sc = cb.check_free(free, bounds, preset)
+    cb.check_request(free, fixed, preset, n_posterior, len(bench.y) + GRID_POINTS)
+    if not float(np.linalg.norm(check_vector("direction", direction))) > 0.0:
+        raise ValueError(f"direction={tuple(direction)!r} is not allowed (allowed: a nonzero 3-vector, world frame)")
     names, p = list(sc.names), len(sc.names)
     if model not in MODELS:
         raise ValueError(f"model={model!r} is not allowed (allowed: {', '.join(MODELS)})")
@@ -388,6 +337,7 @@ def calibrate(  # noqa: C901
             "rms_residual": math.sqrt(float(sol.fun @ sol.fun) / n),
             "residual_sd": math.sqrt(s2),
             "condition_number": cond,
+            "weakest_direction": weakest_direction(jac, names),
             "n_evaluations": count[0],
             "n_search_evaluations": search[0],
             "optimizer_status": int(sol.status),
@@ -438,10 +388,7 @@ def report(ds: xr.Dataset) -> list[str]:
             else f" (warning: the chain is shorter than {mc.TAU_FACTOR} of them: read the draws with care)"
         )
         lines.append(f"  autocorrelation time {tau} steps; acceptance {a['mcmc_acceptance']:.2f}{ok}")
-    cond = a["condition_number"]
-    lines.append(
-        f"rms residual {a['rms_residual']:.4g}, {a['n_evaluations']} {a['fit_model']} evaluations in the fit, condition {cond:.3g}"
-    )
+    lines += diagnostic_lines(ds)
     inside = int(round(a["predictive_share"] * ds.sizes["point"]))
     lines.append(
         f"predictive check: {inside} of {ds.sizes['point']} data points ({a['predictive_share']:.0%}) inside their 95% posterior "
@@ -449,8 +396,6 @@ def report(ds: xr.Dataset) -> list[str]:
     )
     if np.isfinite(a.get("liftoff_share", math.nan)):
         lines.append(f"lift-off: {a['liftoff_share']:.0%} of the draws tilt at every field where the data show a clear tilt (> 3 sd)")
-    if np.isfinite(a["simulator_check_rms"]):
-        lines.append(f"the simulator at the estimate differs from the closed form by {a['simulator_check_rms']:.3g} (rms, data units)")
     lines += [f"warning: {w}" for w in str(a.get("bound_warnings", "")).splitlines() if w]
     lines += [w for w in str(a.get("ruled_out", "")).splitlines() if w]
     if a["undetermined"]:

@@ -38,6 +38,7 @@ _POSITIVE = "> 0"
 
 
 _NONNEG = ">= 0"
+_ELLIPSOID = "ratios of the friction ellipsoid beyond 1e3 (or a radius beyond 10 m) make friction one-dimensional"
 
 
 def check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: float | None = None) -> float:
@@ -65,7 +66,14 @@ def check_number(name: str, value: Any, rule: str, lo: float | None = None, hi: 
 
 @dataclass(frozen=True)
 class PhysicalRange:
-    """Allowed values of an uncertain parameter (``lo_open``: ``lo`` itself excluded)."""
+    """Allowed values of a parameter.
+
+    Two tiers: the physical range ``lo``..``hi`` (``lo_open``: ``lo`` itself excluded), the
+    domain of the physics and of a study's distributions (which are truncated to it); and
+    inside it the *plausible* range ``plausible_lo``..``plausible_hi`` (closed), beyond
+    which no microrobot lies and the solver's cost is not bounded; ``why`` says why, in the
+    words of the error message. :meth:`check` enforces both.
+    """
 
     lo: float
     hi: float
@@ -73,16 +81,37 @@ class PhysicalRange:
     hi_open: bool
     units: str
     long_name: str
+    plausible_lo: float = -_INF
+    plausible_hi: float = _INF
+    why: str = ""
 
     def describe(self) -> str:
         """Describe the range in words, for error messages (:func:`describe_interval`)."""
         return describe_interval(self.lo, self.hi, self.lo_open, self.hi_open)
 
+    def describe_plausible(self) -> str:
+        """The values :meth:`check` accepts, in words, with the units."""
+        lo_open = self.lo_open and self.plausible_lo <= self.lo
+        hi_open = self.hi_open and self.plausible_hi >= self.hi
+        lo, hi = max(self.lo, self.plausible_lo), min(self.hi, self.plausible_hi)
+        return describe_interval(lo, hi, lo_open, hi_open) + ("" if self.units == "1" else f" {self.units}")
+
     def contains(self, x: float) -> bool:
-        """Whether ``x`` lies in the range."""
+        """Whether ``x`` lies in the physical range."""
         above = x > self.lo if self.lo_open else x >= self.lo
         below = x < self.hi if self.hi_open else x <= self.hi
         return above and below
+
+    def plausible(self, x: Any) -> Any:
+        """Whether ``x`` (a number or an array) is finite, physical and plausible (elementwise)."""
+        x = np.asarray(x, dtype=float)
+        above = x > self.lo if self.lo_open else x >= self.lo
+        below = x < self.hi if self.hi_open else x <= self.hi
+        return np.isfinite(x) & above & below & (x >= self.plausible_lo) & (x <= self.plausible_hi)
+
+    def implausible(self, name: str, value: Any) -> str:
+        """The one-line message for a ``value`` of ``name`` outside the plausible range."""
+        return f"{name}={value!r} is implausible (allowed: {self.describe_plausible()}; {self.why})"
 
     def check(self, name: str, value: Any) -> float:
         """Check ``value`` against the range.
@@ -105,6 +134,8 @@ class PhysicalRange:
             raise ValueError(f"{name}={value!r} is not a number (allowed: {self.describe()})") from None
         if not (math.isfinite(x) and self.contains(x)):
             raise ValueError(f"{name}={value!r} is out of range (allowed: {self.describe()})")
+        if not self.plausible_lo <= x <= self.plausible_hi:
+            raise ValueError(self.implausible(name, value))
         return x
 
 
@@ -112,21 +143,45 @@ class PhysicalRange:
 #: (:class:`Params`) and run input (:func:`tumblemc.model.run.run_inputs`). Params,
 #: run_inputs, study configs and the samplers all check against it.
 RANGES: dict[str, PhysicalRange] = {
-    "mass": PhysicalRange(0.0, _INF, True, True, "kg", "robot mass"),
-    "F_elect": PhysicalRange(0.0, _INF, False, True, "N", "electrostatic force"),
-    "mu": PhysicalRange(0.0, _INF, False, True, "1", "friction coefficient"),
+    "mass": PhysicalRange(
+        *(0.0, _INF, True, True, "kg", "robot mass", 1e-12, 1.0),
+        "1e-12 kg is a 10 um cube of water and 1 kg no microrobot; lighter bodies make the contact solve stiff and slow",
+    ),
+    "F_elect": PhysicalRange(
+        *(0.0, _INF, False, True, "N", "electrostatic force", 0.0, 1.0),
+        "electroadhesion reaches about 10 kPa, so 1 N would need a face of 1 cm^2",
+    ),
+    "mu": PhysicalRange(
+        *(0.0, _INF, False, True, "1", "friction coefficient", 0.0, 100.0),
+        "dry friction coefficients lie below about 2; 100 already never slips",
+    ),
     "offset_deg": PhysicalRange(-180.0, 180.0, False, False, "degree", "magnetisation offset angle"),
-    "V_m": PhysicalRange(0.0, _INF, False, True, "m^3", "magnetic volume"),
-    "magnetization": PhysicalRange(0.0, _INF, False, True, "A/m", "magnetisation"),
-    "adhesion_C": PhysicalRange(0.0, _INF, False, True, "N/m^2", "adhesion per contact area"),
+    "V_m": PhysicalRange(
+        *(0.0, _INF, False, True, "m^3", "magnetic volume", 0.0, 1e-6),
+        "a magnet of more than 1 cm^3 is not a microrobot's",
+    ),
+    "magnetization": PhysicalRange(
+        *(0.0, _INF, False, True, "A/m", "magnetisation", 0.0, 2e6),
+        "no material saturates above 1.95e6 A/m (FeCo; NdFeB 1.1e6)",
+    ),
+    "adhesion_C": PhysicalRange(
+        *(0.0, _INF, False, True, "N/m^2", "adhesion per contact area", 0.0, 1e6),
+        "1 MPa is ten times gecko setae, the strongest dry adhesion measured",
+    ),
     "line_contact_fraction": PhysicalRange(0.0, 1.0, False, False, "1", "adhering fraction in point/line contact (face_fraction rule)"),
     "peel_length": PhysicalRange(0.0, 1e-3, False, False, "m", "separation over which a released face peels (peel release)"),
     "line_contact_width": PhysicalRange(0.0, 1e-3, False, False, "m", "width of the adhering strip of a line contact (strip rule)"),
-    "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t"),
-    "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o"),
-    "e_r": PhysicalRange(0.0, _INF, True, True, "m", "friction ellipsoid e_r"),
-    "g": PhysicalRange(0.0, _INF, True, True, "m/s^2", "gravity"),
-    "field_mT": PhysicalRange(0.0, 10_000.0, False, False, "mT", "rotating field magnitude (0 switches the field off)"),
+    "e_t": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_t", 1e-3, 1e3, _ELLIPSOID),
+    "e_o": PhysicalRange(0.0, _INF, True, True, "1", "friction ellipsoid e_o", 1e-3, 1e3, _ELLIPSOID),
+    "e_r": PhysicalRange(0.0, _INF, True, True, "m", "friction ellipsoid e_r", 1e-9, 10.0, _ELLIPSOID),
+    "g": PhysicalRange(
+        *(0.0, _INF, True, True, "m/s^2", "gravity", 0.01, 1000.0),
+        "from a small moon (0.01 m/s^2) to a bench centrifuge at 100 g",
+    ),
+    "field_mT": PhysicalRange(
+        *(0.0, 10_000.0, False, False, "mT", "rotating field magnitude (0 switches the field off)", 0.0, 1000.0),
+        "1 T is beyond any coil system that turns a field; microrobot rigs reach about 0.1 T",
+    ),
     # run inputs (tumblemc.model.run.run_inputs); a study narrows the field and the
     # frequency to > 0, never widens a range
     "incline_deg": PhysicalRange(-89.0, 89.0, False, False, "degree", "substrate incline"),

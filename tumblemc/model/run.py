@@ -30,7 +30,8 @@ from tumblemc.model.fields import (
 )
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.outcome import run_status
-from tumblemc.model.params import RANGES, Params, check_choice, check_number, check_vector, get_preset
+from tumblemc.model.params import RANGES, Params, check_choice, check_number, get_preset
+from tumblemc.model.plausible import check_motion, check_resolved, check_solver
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
 from tumblemc.model.solver_options import SolverOptions
@@ -45,7 +46,6 @@ from tumblemc.version import __version__
 #: of the step (aluminum 20 deg binds: 0.895 at 1e-4 against 0.876). A run's default is this
 #: or a whole divisor of it, from what the run must resolve (model/step_size.py).
 DEFAULT_DT = CEILING_S
-
 
 #: the magnetic torque of a step: at its start (the default), at its end pose (the paper's) or
 #: their mean ("mid", the trapezoid of the midpoint integrator, rotation="midpoint")
@@ -193,12 +193,12 @@ def run_inputs(  # noqa: C901
             raise ValueError(f"freq_hz={freq_hz!r} is out of range (allowed: > 0 for a duration in field periods)")
         duration_s = periods / freq_hz
     duration_s = RANGES["duration_s"].check("duration_s", DEFAULT_DURATION_S if duration_s is None else duration_s)
-    omega0 = check_vector("omega0", omega0)
+    omega0 = check_motion("omega0", omega0)
     dt_rule = "given"
     if dt is None:  # the default: what the run must resolve (model/step_size.py)
         freqs = [freq_hz] if program is None else np.abs(program[:, SEG_FREQ]).tolist()
         choice = default_step(shp.inertia(params.mass), params.V_m * params.magnetization, field_mT, freqs, omega0)
-        dt, dt_rule = choice.dt, choice.rule
+        dt, dt_rule = check_resolved(choice)
     else:
         dt = RANGES["dt"].check("dt", dt)
     torque = check_choice("torque", torque, TORQUE_OPTIONS)
@@ -230,9 +230,9 @@ def run_inputs(  # noqa: C901
         torque=torque,
         rotation=rotation,
         record_every=record_every,
-        solver=solver or SolverOptions(),
+        solver=check_solver(solver),
         lift_m=lift_m,
-        v0=check_vector("v0", v0),
+        v0=check_motion("v0", v0),
         omega0=omega0,
         field=field,
         program=program,

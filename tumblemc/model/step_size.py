@@ -45,6 +45,7 @@ class StepChoice:
     dt: float
     divisor: int
     rule: str
+    needed: int = 1  # the divisor the rule asked for, before the cap MAX_DIVISOR
 
 
 def natural_frequency(inertia: np.ndarray, moment_Am2: float, field_mT: float) -> float:
@@ -80,9 +81,9 @@ def default_step(
         f"initial spin ({TURN_PER_STEP} rad per step at {w0:.4g} rad/s)": TURN_PER_STEP / w0 if w0 > 0 else math.inf,
     }
     rule = min(limits, key=lambda k: limits[k])
-    k = max(1, math.ceil(CEILING_S / limits[rule] - 1e-9))
-    k = min(k, MAX_DIVISOR)
-    return StepChoice(dt=CEILING_S / k, divisor=k, rule=rule)
+    need = max(1, math.ceil(min(CEILING_S / limits[rule], 1e18) - 1e-9))
+    k = min(need, MAX_DIVISOR)
+    return StepChoice(dt=CEILING_S / k, divisor=k, rule=rule, needed=need)
 
 
 __all__ = ["CEILING_S", "MAX_DIVISOR", "STEPS_PER_PERIOD", "TURN_PER_STEP", "StepChoice", "default_step", "natural_frequency"]

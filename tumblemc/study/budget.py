@@ -10,6 +10,8 @@ not part of the study's identity, and a user who means it raises them there.
 
 from __future__ import annotations
 
+import math
+import os
 from typing import Any
 
 from tumblemc.kernels.layout import N_REC
@@ -27,6 +29,32 @@ MAX_STEPS_PER_RUN = 100_000_000
 MAX_RUN_MEMORY_GIB = 2.0
 
 
+#: bytes of the design table per run (measured: 700 with 4 uncertain parameters, at the peak
+#: of :func:`tumblemc.study.design.design`) and per sampled column; an upper estimate
+DESIGN_BYTES_PER_RUN = 512
+DESIGN_BYTES_PER_COLUMN = 128
+_DIM_ATTRS = {"shape": "shapes", "substrate": "presets"}
+
+
+def count_cells(cfg: Any) -> int:
+    """The number of cells of a study, counted from its axes (the product of their lengths), not built."""
+    return math.prod(len(getattr(cfg, _DIM_ATTRS.get(d, d))) for d in cfg.cell_dims)
+
+
+def design_bytes(cfg: Any) -> int:
+    """An upper estimate of the memory of the study's design table, bytes (before anything is allocated)."""
+    cols = len(cfg.uncertain) + (len(cfg.posterior.params) if cfg.posterior is not None else 0)
+    return int(cfg.n_runs) * (DESIGN_BYTES_PER_RUN + DESIGN_BYTES_PER_COLUMN * cols)
+
+
+def usable_memory() -> int:
+    """Half the machine's physical memory, bytes (64 GiB where the system does not say)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):
+        return 64 * 2**30
+
+
 def check_budget(cfg: Any) -> None:
     """Raise :class:`~tumblemc.study.checks.ConfigError` if ``cfg`` exceeds a bound (module docstring)."""
     ex = cfg.execution
@@ -40,13 +68,21 @@ def check_budget(cfg: Any) -> None:
                 f"gives runs of {dur:g} s at freq_hz = {f:g}, beyond the simulator's {dur_hi:g} s",
                 f"periods <= {dur_hi * min(cfg.freq_hz):g} (= {dur_hi:g} s x the lowest freq_hz)",
             )
-    n = cfg.n_runs
+    n = cfg.n_runs  # counted, not built: a grid of 10^12 cells costs nothing here
     if n > ex.max_runs:
         raise config_error(
             "samples",
             cfg.samples,
             f"gives {n:,} runs ({n // cfg.samples:,} cells x {cfg.samples:,} samples)",
             f"at most {ex.max_runs:,} runs in all; fewer samples or cells, or raise [execution] max_runs",
+        )
+    need, have = design_bytes(cfg), usable_memory()
+    if need > have:
+        raise config_error(
+            "samples",
+            cfg.samples,
+            f"gives {n:,} runs whose design table alone needs about {need / 2**30:.3g} GiB",
+            f"at most {have / 2**30:.3g} GiB, half this machine's memory; fewer samples or cells, or split the study",
         )
     key = "dt" if cfg.dt is not None else "periods"
     for f in cfg.freq_hz:  # the finest cell step at each frequency (the strongest field)
@@ -73,4 +109,4 @@ def check_budget(cfg: Any) -> None:
                 )
 
 
-__all__ = ["MAX_RUNS", "MAX_RUN_MEMORY_GIB", "MAX_STEPS_PER_RUN", "check_budget"]
+__all__ = ["MAX_RUNS", "MAX_RUN_MEMORY_GIB", "MAX_STEPS_PER_RUN", "check_budget", "count_cells", "design_bytes", "usable_memory"]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import stat
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,9 +31,36 @@ MAX_GRID_VALUES = 10_001
 _INF = math.inf
 
 
+#: the largest config file read (a grid of 10,001 values per axis is a few hundred kB)
+MAX_CONFIG_BYTES = 16 * 2**20
+
+
+def read_limited(path: Path, limit: int, allowed: str, key: str = "", prefix: str = "") -> bytes:
+    """The bytes of ``path`` if it is a regular file of at most ``limit`` bytes, else one :class:`ConfigError`.
+
+    A device (``/dev/zero``) would be read until memory runs out and a FIFO would block, so
+    the file's kind and size are checked (``stat``, which never blocks) before it is opened.
+    ``allowed`` says what the file should be, ``prefix`` starts the message (default: the path).
+    """
+    head = prefix or f"{path}: "
+    try:
+        st = path.stat()
+        if not stat.S_ISREG(st.st_mode):
+            raise ConfigError(key, f"{head}{path} is not a regular file (allowed: {allowed})")
+        if st.st_size > limit:
+            raise ConfigError(key, f"{head}{path} has {st.st_size:,} bytes (allowed: at most {limit:,}, {allowed})")
+        with open(path, "rb") as fh:
+            raw = fh.read(limit + 1)
+    except OSError as e:
+        raise ConfigError(key, f"{head}cannot read {path} ({e.strerror})") from None
+    if len(raw) > limit:  # it grew after stat
+        raise ConfigError(key, f"{head}{path} has over {limit:,} bytes (allowed: at most that, {allowed})")
+    return raw
+
+
 def read_config_text(path: Path) -> str:
     """A config file's text (UTF-8); a file that is not names itself, the byte and its line and column."""
-    raw = path.read_bytes()
+    raw = read_limited(path, MAX_CONFIG_BYTES, "a TOML study config")
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as e:

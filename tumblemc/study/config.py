@@ -158,7 +158,7 @@ from tumblemc.model.params import PRESETS, RANGES
 from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
 from tumblemc.schema import CI_METHODS
-from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget
+from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget, count_cells
 from tumblemc.study.checkcfg import CheckConfig, parse_check
 from tumblemc.study.checks import (
     ConfigError,
@@ -269,7 +269,7 @@ class StudyConfig:
     @property
     def n_runs(self) -> int:
         """Number of runs: cells x samples."""
-        return len(cells(self)) * self.samples
+        return count_cells(self) * self.samples
 
 
 @dataclass(frozen=True)
@@ -381,7 +381,7 @@ def _parse(d: Mapping[str, Any], base: Path | None = None) -> StudyConfig:
     incline = (
         check_range_table("incline_deg", inc, *_INCLINE) if isinstance(inc, Mapping) else check_num_list("incline_deg", inc, *_INCLINE)
     )
-    field_mT = check_num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, RANGES["field_mT"].hi, lo_open=True)
+    field_mT = check_num_list("field_mT", req("field_mT", "a number or list, mT"), 0.0, RANGES["field_mT"].plausible_hi, lo_open=True)
     freq_hz = check_num_list("freq_hz", req("freq_hz", "a number or list, Hz"), 0.0, RANGES["freq_hz"].hi, lo_open=True)
 
     rng_t = check_table("incline_range", d.get("incline_range", {"min": 0.0, "max": 60.0}))

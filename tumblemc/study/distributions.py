@@ -202,7 +202,28 @@ def _check_args_alone(key: str, param: str, dist: str, a: dict[str, float]) -> N
         raise config_error(f"{key}.rel_high", a["rel_high"], "is not above rel_low", f"a number > rel_low = {a['rel_low']:g}")
 
 
-def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # noqa: C901
+def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:
+    """:func:`_restricted`, refused if it can draw a non-finite value or puts more than NEGLIGIBLE_MASS outside the plausible range.
+
+    The plausible range is :data:`RANGES`' (a run with a value outside it is refused and
+    recorded as failed), so at most a NEGLIGIBLE_MASS share of a study's runs can fail so.
+    """
+    r, key = RANGES[u.param], f"uncertain.{u.param}"
+    with np.errstate(all="ignore"):
+        pd = _restricted(u, nominal, where)
+        ends = pd.ppf(np.array([0.0, NEGLIGIBLE_MASS, 1.0 - NEGLIGIBLE_MASS, 1.0]))  # 0, 1: the extreme draws (U_EPS)
+    if not (np.isfinite(ends).all() and r.plausible(ends[1:3]).all()):
+        spec = ", ".join(f"{k} = {v:g}" for k, v in u.args)
+        raise ConfigError(
+            key,
+            f"{key} (dist={u.dist!r}, {spec}){f' for {where}' if where else ''} draws from {ends[0]:.4g} to {ends[3]:.4g} "
+            f"{r.units}, its {NEGLIGIBLE_MASS:g} and {1 - NEGLIGIBLE_MASS:g} quantiles {ends[1]:.4g} and {ends[2]:.4g} (allowed: "
+            f"finite draws, at most {NEGLIGIBLE_MASS:g} of them outside {r.describe_plausible()}, {r.why}; a smaller spread)",
+        )
+    return pd
+
+
+def _restricted(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # noqa: C901
     r = RANGES[u.param]
     a = dict(u.args)
     key = f"uncertain.{u.param}"
@@ -242,7 +263,7 @@ def _resolve(u: Uncertain, nominal: float, where: str) -> ParamDistribution:  # 
                 f"{key}.dist='lognormal' needs a mean > 0 but the nominal {u.param} is {nominal:g}{at} (allowed: an absolute 'mean' > 0)",
             )
         cv = a["sd"] / mean if "sd" in a else a["cv"]
-        s2 = math.log1p(cv * cv)
+        s2 = math.log1p(min(cv * cv, 1e300))  # a cv beyond 1e150 is refused by its draws (_resolve)
         dist = stats.lognorm(math.sqrt(s2), scale=mean / math.sqrt(1.0 + cv * cv))
         c_hi = 1.0
         if math.isfinite(r.hi):

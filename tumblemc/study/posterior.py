@@ -20,8 +20,11 @@ from typing import Any
 import numpy as np
 
 from tumblemc.model.params import NUMERIC_FIELDS, RANGES
-from tumblemc.study.checks import ConfigError, check_table, config_error
+from tumblemc.study.checks import ConfigError, check_table, config_error, read_limited
 from tumblemc.study.distributions import POSTERIOR_SLOT
+
+#: the largest posterior file read: a million draws of every Params field take 112 MB
+MAX_POSTERIOR_BYTES = 256 * 2**20
 
 
 @dataclass(frozen=True)
@@ -66,10 +69,7 @@ def load_posterior(value: Any, base: Path | None = None) -> Posterior:
     path = Path(value)
     if not path.is_absolute() and base is not None:
         path = base / path
-    try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise ConfigError(key, f"{key} = {value!r}: cannot read {path} ({e.strerror})") from None
+    raw = read_limited(path, MAX_POSTERIOR_BYTES, "a calibration file written by tumblemc calibrate", key, f"{key} = {value!r}: ")
     digest = hashlib.sha256(raw).hexdigest()
     if want is not None and want != digest:
         raise ConfigError(key, f"{key}: {path} has changed (sha256 {digest[:12]}..., the study was written with {str(want)[:12]}...)")
@@ -86,9 +86,14 @@ def load_posterior(value: Any, base: Path | None = None) -> Posterior:
         raise ConfigError(key, f"{key}: {path} has no posterior draws (allowed: variables named after Params fields along 'sample')")
     for j, n in enumerate(names):
         r = RANGES[n]
-        bad = ~((draws[:, j] >= r.lo) & (draws[:, j] <= r.hi) & np.isfinite(draws[:, j]))
+        bad = ~r.plausible(draws[:, j])
         if bad.any():
-            raise ConfigError(key, f"{key}: {path}: {n} has {int(bad.sum())} draws outside {r.lo}..{r.hi} {r.units}")
+            i = int(np.argmax(bad))
+            raise ConfigError(
+                key,
+                f"{key}: {path}: {n} has {int(bad.sum())} of {len(draws)} draws outside {r.describe_plausible()}, the first "
+                f"{float(draws[i, j])!r} (sample {i}) (allowed: every draw a value Params accepts; {r.why or 'the physical range'})",
+            )
     return Posterior(str(path.resolve()), digest, names, draws, shape, preset)
 
 
@@ -105,4 +110,4 @@ def split_posterior(table: Any, base: Path | None) -> tuple[Any, Posterior | Non
     return rest, post
 
 
-__all__ = ["POSTERIOR_SLOT", "Posterior", "load_posterior", "split_posterior"]
+__all__ = ["MAX_POSTERIOR_BYTES", "POSTERIOR_SLOT", "Posterior", "load_posterior", "split_posterior"]
