@@ -45,8 +45,13 @@ def compare(out: Path, ref: Path) -> None:
     a, b = read(ref / "claims.csv"), read(out / "claims.csv")
     key = lambda r: (r["claim_id"], r["scenario"], r["quantity"])  # noqa: E731
     ra = {key(r): r for r in a}
-    moved = [(k, ra[k]["verdict"], r["verdict"], ra[k]["measured"], r["measured"]) for r in b if (k := key(r)) in ra and ra[k]["verdict"] != r["verdict"]]
-    print(f"claims: {sum(r['verdict'] == 'pass' for r in a)} pass with the default, {sum(r['verdict'] == 'pass' for r in b)} with midpoint; verdicts moved: {len(moved)}")
+    moved = [
+        (k, ra[k]["verdict"], r["verdict"], ra[k]["measured"], r["measured"])
+        for r in b
+        if (k := key(r)) in ra and ra[k]["verdict"] != r["verdict"]
+    ]
+    n_a, n_b = (sum(r["verdict"] == "pass" for r in rows_) for rows_ in (a, b))
+    print(f"claims: {n_a} pass with the default, {n_b} with midpoint; verdicts moved: {len(moved)}")
     for k, va, vb, ma, mb in moved:
         print(f"  {k[0]} {k[1]} ({k[2]}): {va} -> {vb}\n      default:  {ma}\n      midpoint: {mb}")
     ra_, rb_ = read(ref / "robustness.csv"), read(out / "robustness.csv")
@@ -54,7 +59,10 @@ def compare(out: Path, ref: Path) -> None:
         bad = [r for r in rows_ if r["status"] != "0"]
         worst = max(float(r["energy_gain_ratio"]) for r in rows_)
         fails = sum(int(r["failed_steps"]) for r in rows_)
-        print(f"robustness ({name}): {len(rows_)} scenarios, {len(bad)} not ok, {fails} failed steps, largest energy ratio {worst:.2g}" + (": " + ", ".join(r["scenario"] for r in bad) if bad else ""))
+        names = ": " + ", ".join(r["scenario"] for r in bad) if bad else ""
+        print(
+            f"robustness ({name}): {len(rows_)} scenarios, {len(bad)} not ok, {fails} failed steps, largest energy ratio {worst:.2g}{names}"
+        )
 
 
 def main() -> None:

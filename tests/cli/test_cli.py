@@ -204,7 +204,7 @@ def test_the_kernel_step_says_whether_it_loads_or_compiles_and_ticks(
     monkeypatch.setattr(cluster, "warm_kernels", lambda: time.sleep(0.35) or 0.35)
     assert warm_kernels_saying(True, tick_s=0.1) == 0.35
     err = capsys.readouterr().err.splitlines()
-    assert err[0].startswith("loading the compiled kernels from the cache" if cached else "compiling the kernels (about")
+    assert err[0].startswith("loading the compiled kernels from the cache" if cached else "compiling the kernels (")
     ticks = [line for line in err if line.startswith("  still")]
     assert len(ticks) >= 2 and all(("loading" if cached else "compiling") in t for t in ticks)
     assert err[-1].startswith("kernels ready in")
