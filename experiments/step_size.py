@@ -165,7 +165,7 @@ def ladder(args: argparse.Namespace) -> None:
 def twins(args: argparse.Namespace) -> None:
     """The nominal robot and its two twins (magnetisation x (1 -+ 1e-6)) at each rung.
 
-    How far a 1e-6 perturbation moves the ratio at each step size (the ladder but its last rung).
+    How far a 1e-6 perturbation moves the ratio at each step size of the ladder, and :func:`classify`'s verdict.
     """
     divs = [int(x) for x in args.divs.split(",")]
     print("| cell | step | ratio | twins (M x 1 -+ 1e-6) | twins' spread |")
@@ -175,10 +175,31 @@ def twins(args: argparse.Namespace) -> None:
         runs = [(dict(nom, magnetization=magnetization * (1 + s)), h / k) for k in divs for s in (0.0, -1e-6, 1e-6)]
         with ProcessPoolExecutor(args.workers) as ex:
             res = list(ex.map(one, [cell] * len(runs), [r[0] for r in runs], [r[1] for r in runs]))
+        spreads, ratios = [], []
         for i, k in enumerate(divs):
             r0, r1, r2 = (x[0] for x in res[3 * i : 3 * i + 3])
             spread = max(r0, r1, r2) - min(r0, r1, r2)
+            spreads.append(spread)
+            ratios.append(r0)
             print(f"| {cell} | h/{k} | {r0:.3f} | {r1:.3f}, {r2:.3f} | {spread:.3f} |", flush=True)
+        print(f"| {cell} | verdict | {classify(ratios, spreads)} | | |", flush=True)
+
+
+def classify(ratios: list[float], spreads: list[float], tol: float = 0.05) -> str:
+    """Converged, sensitive or not converged: a single run's ratio along a ladder of steps, with its twins at each rung.
+
+    *converged*: the ratios of the rungs within ``tol`` of each other. *sensitive*: the
+    twins (a 1e-6 change of the magnetisation) at the rungs move the ratio at least half as
+    much as the ladder's largest move between successive rungs: what is left of the step's
+    effect is the model's own sensitivity, which no step removes. Else *not converged*.
+    """
+    ladder_spread = max(ratios) - min(ratios)
+    if ladder_spread <= tol:
+        return f"converged (spread {ladder_spread:.3f})"
+    move = max(abs(b - a) for a, b in zip(ratios, ratios[1:], strict=False))
+    twin = max(spreads)
+    word = "sensitive" if twin >= 0.5 * move else "not converged"
+    return f"{word} (ladder spread {ladder_spread:.3f}, largest move between rungs {move:.3f}, twins up to {twin:.3f})"
 
 
 def _follows(f: float, div: int) -> bool:
@@ -258,8 +279,6 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--save", default="", help="ensemble: write each ensemble's ratios to <save>_<cell>_<step>.npz")
     args = ap.parse_args(argv)
     if args.stage == "stepout" and args.divs == "1,4,16,64":
-        args.divs = "1,4,16"
-    if args.stage == "twins" and args.divs == "1,4,16,64":
         args.divs = "1,4,16"
     {"ensemble": ensemble, "ladder": ladder, "twins": twins, "stepout": stepout, "spin": spin}[args.stage](args)
 
