@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -177,12 +179,11 @@ def test_study_run_refuses_a_changed_config_before_compiling(tmp_path, capsys, m
     parts.mkdir()
     (parts / "study.json").write_text(json.dumps({"config_hash": "0" * 64, "config": {}}))
     import tumblemc.study.cluster as cluster
-    import tumblemc.study.engine as engine
 
     def no(*a: object, **k: object) -> None:
         raise AssertionError("compiled or started workers before refusing")
 
-    monkeypatch.setattr(engine, "warm_kernels", no)
+    monkeypatch.setattr(cluster, "warm_kernels", no)  # what the command's kernel step calls (cli.common.warm_kernels_saying)
     monkeypatch.setattr(cluster, "local_client", no)
     assert main(["study", "run", "studies/smoke.toml", "--out", str(out), "--workers", "0"]) == 2
     err = capsys.readouterr().err
@@ -211,8 +212,15 @@ def test_the_kernel_step_says_whether_it_loads_or_compiles_and_ticks(
     assert warm_kernels_saying(False) == 0.35 and capsys.readouterr().err == ""
 
 
-def test_kernels_cached_reads_numbas_index() -> None:
+def test_kernels_cached_reads_numbas_index(tmp_path: Path) -> None:
+    import subprocess
+
     from tumblemc.study.cluster import kernels_cached, warm_kernels
 
     warm_kernels()
     assert kernels_cached() is True
+    # a process whose Numba cache folder is empty has nothing to load
+    code = "from tumblemc.study.cluster import kernels_cached; print(kernels_cached())"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.strip() == "False"

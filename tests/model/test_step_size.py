@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -171,3 +172,31 @@ def test_the_excess_is_flagged_at_the_papers_step_and_not_at_a_converging_one() 
         assert coarse.attrs["status"] == 4 and coarse.attrs["energy_excess_ratio"] > 0.05
         assert fine.attrs["status"] == 0 and fine.attrs["energy_excess_ratio"] < 0.01
         assert coarse.attrs["contact_gain_ratio"] < 1e-6  # no contact: the old account saw nothing
+
+
+def test_a_study_whose_cells_step_differently_hashes_it_and_says_so() -> None:
+    from tumblemc.study.identity import config_hash, identity_json
+    from tumblemc.study.stepcfg import step_attrs
+
+    # every shipped study: one step for all cells, the hash of before the per-cell step
+    for toml in sorted(Path("studies").glob("*.toml")):
+        if "design" in toml.name:
+            continue
+        cfg = load_config(str(toml))
+        assert "dt_rule" not in identity_json(cfg) and "dt_rule" not in step_attrs(cfg), toml
+    mixed = load_config({**_smoke_dict(), "freq_hz": [1.0, 200.0]})
+    alike = load_config({**_smoke_dict(), "freq_hz": [1.0, 2.0]})
+    assert '"dt_rule":"per cell"' in identity_json(mixed) and "dt_rule" in step_attrs(mixed)
+    assert "dt_rule" not in identity_json(alike)
+    given = load_config({**_smoke_dict(), "freq_hz": [1.0, 200.0], "dt": 5e-6})
+    assert "dt_rule" not in identity_json(given) and config_hash(given) != config_hash(mixed)
+
+
+def test_the_budget_counts_a_searched_frequencys_step() -> None:
+    # a threshold study searching the frequency runs every robot at its fastest frequency's step
+    base = {**_smoke_dict(), "mode": "threshold", "threshold_axis": "freq_hz", "freq_hz": [0.5, 160.0], "incline_deg": [0.0]}
+    cfg = load_config(base)
+    steps = round(cfg.periods / 0.5 / study_dt(cfg))  # the slow frequency at the fast one's step
+    with pytest.raises(ValueError, match="steps"):
+        load_config({**base, "execution": {"max_steps_per_run": steps - 1}})
+    load_config({**base, "execution": {"max_steps_per_run": steps * cfg.check.dt_factor}})

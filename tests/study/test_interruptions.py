@@ -90,15 +90,24 @@ def _terminates_after_run_2(task: Task) -> Any:
 @pytest.mark.skipif(sys.platform == "win32", reason="no SIGTERM to send on Windows")
 def test_sigterm_ends_like_ctrl_c_in_process(reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: Any) -> None:
     out, toml = tmp_path / "tiny.nc", _toml(tmp_path)
-    with monkeypatch.context() as m:
-        m.setattr("tumblemc.study.engine.execute_task", _terminates_after_run_2)
-        rc = main(_run(toml, out, "--batch-size", "1"))
+
+    def sentinel(signum: int, frame: Any) -> None:  # the handler before the command, which it must restore
+        raise AssertionError("the command's SIGTERM handler was not installed")
+
+    previous = signal.signal(signal.SIGTERM, sentinel)
+    try:
+        with monkeypatch.context() as m:
+            m.setattr("tumblemc.study.engine.execute_task", _terminates_after_run_2)
+            rc = main(_run(toml, out, "--batch-size", "1"))
+        restored = signal.getsignal(signal.SIGTERM)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     err = capsys.readouterr().err.strip()
     assert rc == 143 and "Traceback" not in err
     want = f"terminated (SIGTERM): 2 finished runs are kept in {parts_dir(out)}; run the same command again to resume"
     assert err.splitlines()[-1] == want
     assert not _lock(out).exists() and not out.exists()
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handler is the command's, not left behind
+    assert restored is sentinel  # the handler is the command's, not left behind
     assert main(_run(toml, out)) == 0
     assert_same_result(reference, out)
 

@@ -183,7 +183,7 @@ def write_dataset(ds: Any, args: argparse.Namespace) -> int:
     return 0
 
 
-#: what a cold compile costs, said before it starts (measured: docs/notes/performance.md, "Compile")
+#: what a cold compile costs, said before it starts (measured: docs/notes/performance.md, "Compile time")
 COMPILE_ESTIMATE = "1-4 minutes on 2 cores, by the machine's load; once per install"
 
 

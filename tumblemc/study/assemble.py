@@ -26,7 +26,7 @@ from tumblemc.schema import (
 )
 from tumblemc.study.config import SAMPLING_SCHEME, StudyConfig
 from tumblemc.study.design import check_inclines
-from tumblemc.study.stepcfg import study_dt
+from tumblemc.study.stepcfg import step_attrs
 from tumblemc.version import __version__, build_info
 
 
@@ -231,7 +231,7 @@ def assemble_runs(
     runs.attrs["check_dt_factor"] = float(cfg.check.dt_factor)
     runs.attrs["early_decision"] = int(cfg.early_decision)
     runs.attrs["decided_early_runs"] = int(np.count_nonzero(runs["decided_early"].values == 1))
-    runs.attrs["dt"] = study_dt(cfg)
+    runs.attrs.update(step_attrs(cfg))
     return runs
 
 
@@ -258,7 +258,7 @@ def assemble_critical(
             "check_dt_factor": float(cfg.check.dt_factor),
         }
     )
-    runs.attrs["dt"] = study_dt(cfg)
+    runs.attrs.update(step_attrs(cfg))
     if len(check_idx):
         pos = _check_pos(check, check_idx)
         g = check["grid_climbed"][pos].astype(np.int8)

@@ -85,8 +85,9 @@ def check_budget(cfg: Any) -> None:
             f"at most {have / 2**30:.3g} GiB, half this machine's memory; fewer samples or cells, or split the study",
         )
     key = "dt" if cfg.dt is not None else "periods"
-    for f in cfg.freq_hz:  # the finest cell step at each frequency (the strongest field)
-        dt = min(cell_dt(cfg, shape, sub, None, f) for shape in cfg.shapes for sub in cfg.presets)
+    searched = cfg.mode == "threshold" and cfg.threshold_axis == "freq_hz"  # one step per robot: the fastest frequency's
+    for f in cfg.freq_hz:  # the finest cell step at each frequency (the strongest field), as stepcfg.row_dt gives it
+        dt = min(cell_dt(cfg, shape, sub, None, None if searched else f) for shape in cfg.shapes for sub in cfg.presets)
         for fine in (False, True):
             h = dt / cfg.check.dt_factor if fine else dt
             steps = round(cfg.periods / f / h)

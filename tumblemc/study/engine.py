@@ -234,7 +234,7 @@ def run_study(
     batch_size, max_in_flight : int, optional
         Runs per task and tasks submitted at once (default: the config's ``[execution]``).
     lock : bool
-        Hold :class:`tumblemc.io.StudyLock` on the output while running (False: the caller
+        Hold :class:`tumblemc.study.lock.StudyLock` on the output while running (False: the caller
         holds it, as ``tumblemc study run`` does from before it compiles anything).
 
     Returns

@@ -22,6 +22,9 @@ if TYPE_CHECKING:
 #: with it written out, so an earlier paper-form run's shards are refused, not mixed in; the
 #: same for ``early_decision`` (true by default) and ``check.twin_rel`` (the
 #: sensitivity twins of the dt check, 1e-6 by default)
+#: A study without ``dt`` whose cells need different default steps also hashes a marker
+#: ``dt_rule = "per cell"`` (each cell at its own step; earlier versions ran every cell at the
+#: most demanding cell's): a study whose cells share one step keeps its hash.
 ADDED_KEYS: dict[str, object] = {
     "rotation": "paper",
     "check.ratio_abs_tol": 0.05,
@@ -60,7 +63,16 @@ def identity_json(config: StudyConfig) -> str:
             table = table[p]
         if leaf in table and table[leaf] == default:
             del table[leaf]
+    if config.dt is None and _steps_differ(config):  # each cell at its own step since issue 45: not
+        d["dt_rule"] = "per cell"  # the study-wide step of earlier studies, whose shards are refused, not mixed in
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def _steps_differ(config: StudyConfig) -> bool:
+    """Whether the cells of a study without ``dt`` run at different default steps (:mod:`tumblemc.study.stepcfg`)."""
+    from tumblemc.study.stepcfg import step_attrs
+
+    return "dt_rule" in step_attrs(config)
 
 
 def _canonical(config: StudyConfig) -> dict[str, Any]:

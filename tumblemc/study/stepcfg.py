@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -26,10 +27,16 @@ def cell_dt(cfg: Any, shape: str, substrate: str, field_mT: float | None = None,
     if cfg.dt is not None:
         return float(cfg.dt)
     bias = float(np.linalg.norm(cfg.field.bias_mT))
-    p = get_preset(substrate)
     mT = max(cfg.field_mT) if field_mT is None else float(field_mT)
-    hz = list(cfg.freq_hz) if freq_hz is None else [float(freq_hz)]
-    return float(default_step(get_shape(shape).inertia(p.mass), p.V_m * p.magnetization, mT + bias, hz).dt)
+    hz = tuple(cfg.freq_hz) if freq_hz is None else (float(freq_hz),)
+    return _default_step(shape, substrate, mT + bias, hz)
+
+
+@functools.lru_cache(maxsize=4096)
+def _default_step(shape: str, substrate: str, field_mT: float, freqs: tuple[float, ...]) -> float:
+    """:func:`default_step` of a shape with a preset's nominal magnet (memoised: a study asks it per row)."""
+    p = get_preset(substrate)
+    return float(default_step(get_shape(shape).inertia(p.mass), p.V_m * p.magnetization, field_mT, list(freqs)).dt)
 
 
 def row_dt(cfg: Any, row: Mapping[str, Any] | Any) -> float:
@@ -55,4 +62,14 @@ def study_dt(cfg: Any) -> float:
     return min(cell_dt(cfg, shape, sub) for shape in cfg.shapes for sub in cfg.presets)
 
 
-__all__ = ["cell_dt", "row_dt", "study_dt"]
+def step_attrs(cfg: Any) -> dict[str, Any]:
+    """The file attributes of a study's step: ``dt`` (:func:`study_dt`), and ``dt_rule`` where the cells' steps differ."""
+    from tumblemc.study.config import cells
+
+    attrs: dict[str, Any] = {"dt": study_dt(cfg)}
+    if cfg.dt is None and len({row_dt(cfg, c) for c in cells(cfg)}) > 1:
+        attrs["dt_rule"] = "each cell at its own default step (the runs' dt); dt is the smallest"
+    return attrs
+
+
+__all__ = ["cell_dt", "row_dt", "step_attrs", "study_dt"]

@@ -19,7 +19,7 @@ from tumblemc.analysis.maps import maps as make_maps
 from tumblemc.schema import CHECK_FLAG_ATTRS, COORD_ATTRS, CRITICAL_ATTRS, OUTCOME_ATTRS, STATUS_FLAGS
 from tumblemc.study.config import StudyConfig
 from tumblemc.study.modes import THRESHOLD_AXES
-from tumblemc.study.stepcfg import study_dt
+from tumblemc.study.stepcfg import step_attrs
 from tumblemc.study.threshold import THRESHOLD_OUTCOMES, difficulty_order, direct_passes, implied_verdicts
 
 _YES_NO = {"flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "no yes"}
@@ -103,7 +103,7 @@ def assemble_threshold(
             "threshold_start": cfg.threshold_start,
             "early_decision": int(cfg.early_decision),
             "check_dt_factor": float(cfg.check.dt_factor),
-            "dt": study_dt(cfg),
+            **step_attrs(cfg),
             "simulations_total": int(runs["n_simulations"].sum()),
             "simulations_grid_equivalent": int(n * len(vals)),
             "decided_early_runs": int(np.count_nonzero(main["probe_decided_early"] == 1)),
