@@ -240,7 +240,11 @@ def _run(args: argparse.Namespace) -> int:
         res, wrote = _run_study(args, cfg, path)
     except KeyboardInterrupt as e:
         what = "terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted"
-        print(f"\n{what}: {kept_words(path, config_hash(cfg))}; run the same command again to resume", file=sys.stderr)
+        try:  # counting the kept runs reads the shards: a second Ctrl-C there still ends in this one line
+            kept = kept_words(path, config_hash(cfg))
+        except KeyboardInterrupt:
+            kept = "the finished runs are kept"
+        print(f"\n{what}: {kept}; run the same command again to resume", file=sys.stderr)
         return 143 if isinstance(e, Terminated) else 130
     except StudyAbortedError as e:
         print(f"error: {e}", file=sys.stderr)
