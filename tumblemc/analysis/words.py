@@ -147,9 +147,10 @@ def check_words(runs: xr.Dataset, where: str = "the result file", worst: int = 3
     rate = float((flag[compared] == 1).mean())
     text = f"dt converged in {rate:.0%} of checked runs ({n_cmp} of {flag.size} valid at both steps)"
     bad = np.flatnonzero(flag == 0)
-    if bad.size == 0:
-        return text + "; none differs beyond tolerance"
     a = runs.attrs
+    if bad.size == 0:  # the tolerance in words: a large |difference| on a large ratio is within it
+        tol = f"{a['check_ratio_abs_tol']:g} + {a['check_ratio_rel_tol']:g} x |ratio|" if "check_ratio_abs_tol" in a else "the tolerance"
+        return text + f"; none differs beyond {tol}"
     diff = np.abs(np.asarray(runs["check_ratio_diff"].values))
     fine = np.asarray(runs["check_progress_ratio_fine"].values)
     coarse = np.asarray(runs["progress_ratio"].values)
