@@ -9,8 +9,10 @@ probe lengths (what the first steps from rest and a first call cost cancels), an
 the whole run. Beyond ``max_wall_s`` the run is refused in one line; otherwise it runs
 from its start as before, so its record is the same bit for bit.
 
-The projection is the first steps' rate: a run whose later phases are stiffer than its
-start (landings, sliding) may take longer than projected.
+A run starts at rest, and its later steps (tumbling, landings) cost more than its first:
+the projection takes them at :data:`LATER_STEPS_FACTOR` times the first steps' cost. It is
+an estimate, not a bound: a run may still take longer (a 1e-12 kg robot at its default
+step, more than 10 times its first steps' rate).
 
 Only single runs are guarded (:func:`tumblemc.model.run.simulate`); a study's runs are
 bounded by its step budget (:mod:`tumblemc.study.budget`).
@@ -37,9 +39,16 @@ MIN_PROBED_STEPS = 1000
 #: PROBE_WALL_S and the projection is not clear of the budget
 PROBE_STEPS = (2, 16, 128, 1024)
 #: the probe's own wall time, s: a longer probe is not started
-PROBE_WALL_S = 2.0
+PROBE_WALL_S = 3.0
 #: a projection below this fraction of the budget ends the probe
 CLEAR = 0.1
+#: the timing noise of a probe, as a fraction of its time
+NOISE = 0.05
+#: the projection's factor on the first steps' cost for the later steps: a run starts at
+#: rest, and once it moves (tumbling, landings) a step costs more. Measured over 13 runs
+#: (the paper's points, 200 Hz, the plausible extremes): the whole run took 0.1 to 4.3
+#: times the first steps' rate; a 1e-12 kg robot at its default step more than 10 times
+LATER_STEPS_FACTOR = 4.0
 
 
 @dataclass(frozen=True)
@@ -65,22 +74,23 @@ def project(n_steps: int, run_first: Callable[[int], object], budget: float = ma
 
     The cost of a step is the difference of the last two probes' times over their
     difference in steps (a first call's load and the first steps from rest cancel); the
-    projection is the last probe's time plus that for the remaining steps. Probing stops
-    when the projection is below ``CLEAR * budget`` or the next probe would not fit in
-    :data:`PROBE_WALL_S`.
+    projection is the last probe's time plus :data:`LATER_STEPS_FACTOR` times that for the
+    remaining steps. Probing stops when the projection is below ``CLEAR * budget`` or the
+    next probe would not fit in :data:`PROBE_WALL_S`. A difference below :data:`NOISE` of
+    the probe's time (a first step from rest can cost 0.5 s, the next ones 20 us) is taken
+    at that: an upper bound, which a longer probe tightens.
     """
-    spent, n_prev, t_prev, per_step = 0.0, 0, 0.0, math.inf
-    seconds = math.inf
+    spent, n_prev, t_prev, per_step, seconds = 0.0, 0, 0.0, 0.0, math.inf
     for i, n in enumerate(PROBE_STEPS):
-        if n >= n_steps or (i >= 2 and (seconds < CLEAR * budget or spent + per_step * n > PROBE_WALL_S)):
+        if n >= n_steps or (i >= 2 and (seconds < CLEAR * budget or spent + t_prev + per_step * (n - n_prev) > PROBE_WALL_S)):
             break
         t0 = perf_counter()
         run_first(n)
         t = perf_counter() - t0
         spent += t
-        if n_prev:  # at least the mean cost of a step of the longer probe when noise hides the difference
-            per_step = (t - t_prev) / (n - n_prev) if t > t_prev else t / n
-            seconds = t + per_step * (n_steps - n)
+        if n_prev:  # a difference within the timing noise bounds the cost of a step instead of measuring it
+            per_step = max(t - t_prev, NOISE * t) / (n - n_prev)
+            seconds = t + LATER_STEPS_FACTOR * per_step * (n_steps - n)
         n_prev, t_prev = n, t
     return Projection(seconds=seconds, per_step=per_step, probed=n_prev)
 
@@ -102,10 +112,12 @@ def check_cost(n_steps: int, dt: float, run_first: Callable[[int], object], max_
         return None
     p = project(n_steps, run_first, budget)
     if p.seconds > budget:
+        about = f"{p.seconds:,.0f}" if p.seconds >= 10 else f"{p.seconds:.2f}"
         raise ValueError(
-            f"max_wall_s={budget:g}: this run would take about {p.seconds:,.0f} s of wall time "
-            f"({n_steps:,} steps of dt={dt:.3g} s at {p.per_step * 1e3:.3g} ms a step, measured on its first {p.probed} steps; "
-            f"allowed: a run projected within max_wall_s): shorten duration_s, give a coarser dt, or raise max_wall_s (None: no limit)"
+            f"max_wall_s={budget:g}: this run would take about {about} s of wall time or more ({n_steps:,} steps of "
+            f"dt={dt:.3g} s at {LATER_STEPS_FACTOR:g} x {p.per_step * 1e3:.3g} ms: its first {p.probed} steps' cost, times "
+            f"{LATER_STEPS_FACTOR:g} for the later steps, dearer once the robot moves; allowed: a run projected within max_wall_s): "
+            "shorten duration_s, give a coarser dt, or raise max_wall_s (None: no limit)"
         )
     return p
 
@@ -114,7 +126,9 @@ __all__ = [
     "CLEAR",
     "DEAREST_STEP_S",
     "DEFAULT_MAX_WALL_S",
+    "LATER_STEPS_FACTOR",
     "MIN_PROBED_STEPS",
+    "NOISE",
     "PROBE_STEPS",
     "PROBE_WALL_S",
     "Projection",
