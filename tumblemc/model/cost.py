@@ -4,15 +4,16 @@ A plausible run can still cost an hour: a 1e-12 kg robot needs a 3.8e-7 s defaul
 (five million steps for 2 s), and at a coarse step its stiff contact solve takes tens of
 milliseconds a step. The step count alone does not say which: the cost of a step ranges
 from 1 us to 0.1 s. So before a long run, :func:`check_cost` runs its first steps (the
-same inputs, a shorter clock), takes the cost of a step from the difference between two
-probe lengths (what the first steps from rest and a first call cost cancels), and projects
-the whole run. Beyond ``max_wall_s`` the run is refused in one line; otherwise it runs
-from its start as before, so its record is the same bit for bit.
+same inputs, a shorter clock), takes the cost of a step (CPU time of the thread, which
+other processes on the machine do not inflate) from the difference between two probe
+lengths (what a first call and the first steps from rest cost cancels), and projects the
+whole run. Beyond ``max_wall_s`` the run is refused in one line; otherwise it runs from
+its start as before, so its record is the same bit for bit.
 
-A run starts at rest, and its later steps (tumbling, landings) cost more than its first:
+A run starts at rest, and its later steps (tumbling, landings) can cost more than its first:
 the projection takes them at :data:`LATER_STEPS_FACTOR` times the first steps' cost. It is
-an estimate, not a bound: a run may still take longer (a 1e-12 kg robot at its default
-step, more than 10 times its first steps' rate).
+an estimate, not a bound: most runs take less (0.1 to 4.3 times the first steps' rate),
+and a run may take more (the 1e-12 kg robot at its default step, over 12 times).
 
 Only single runs are guarded (:func:`tumblemc.model.run.simulate`); a study's runs are
 bounded by its step budget (:mod:`tumblemc.study.budget`).
@@ -23,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from time import perf_counter
+from time import thread_time
 from typing import Any
 
 #: the default wall-time budget of a single run, s
@@ -38,17 +39,20 @@ MIN_PROBED_STEPS = 1000
 #: the probe's lengths, steps: the first two always run, the others while they fit in
 #: PROBE_WALL_S and the projection is not clear of the budget
 PROBE_STEPS = (2, 16, 128, 1024)
-#: the probe's own wall time, s: a longer probe is not started
+#: the probe's own time, s (CPU time of the calling thread, immune to other processes on the
+#: machine): a longer probe is not started if it may not fit, at twice the last cost of a
+#: step (a step costs more once the robot moves: 14 to 35 ms at mass 1e-12 kg, dt 5e-5 s)
 PROBE_WALL_S = 3.0
 #: a projection below this fraction of the budget ends the probe
 CLEAR = 0.1
 #: the timing noise of a probe, as a fraction of its time
 NOISE = 0.05
 #: the projection's factor on the first steps' cost for the later steps: a run starts at
-#: rest, and once it moves (tumbling, landings) a step costs more. Measured over 13 runs
-#: (the paper's points, 200 Hz, the plausible extremes): the whole run took 0.1 to 4.3
-#: times the first steps' rate; a 1e-12 kg robot at its default step more than 10 times
-LATER_STEPS_FACTOR = 4.0
+#: rest, and once it moves (tumbling, landings) a step can cost more. Measured: 13 runs
+#: (the paper's points, 200 Hz, the plausible extremes) took 0.1 to 4.3 times the first
+#: steps' rate in all; the 1e-12 kg robot at its default step more than 12 times (its
+#: first 1.3 million steps took over 10 minutes of CPU, 37 us a step at the start).
+LATER_STEPS_FACTOR = 10.0
 
 
 @dataclass(frozen=True)
@@ -82,11 +86,11 @@ def project(n_steps: int, run_first: Callable[[int], object], budget: float = ma
     """
     spent, n_prev, t_prev, per_step, seconds = 0.0, 0, 0.0, 0.0, math.inf
     for i, n in enumerate(PROBE_STEPS):
-        if n >= n_steps or (i >= 2 and (seconds < CLEAR * budget or spent + t_prev + per_step * (n - n_prev) > PROBE_WALL_S)):
+        if n >= n_steps or (i >= 2 and (seconds < CLEAR * budget or spent + t_prev + 2 * per_step * (n - n_prev) > PROBE_WALL_S)):
             break
-        t0 = perf_counter()
+        t0 = thread_time()
         run_first(n)
-        t = perf_counter() - t0
+        t = thread_time() - t0
         spent += t
         if n_prev:  # a difference within the timing noise bounds the cost of a step instead of measuring it
             per_step = max(t - t_prev, NOISE * t) / (n - n_prev)
@@ -114,9 +118,9 @@ def check_cost(n_steps: int, dt: float, run_first: Callable[[int], object], max_
     if p.seconds > budget:
         about = f"{p.seconds:,.0f}" if p.seconds >= 10 else f"{p.seconds:.2f}"
         raise ValueError(
-            f"max_wall_s={budget:g}: this run would take about {about} s of wall time or more ({n_steps:,} steps of "
-            f"dt={dt:.3g} s at {LATER_STEPS_FACTOR:g} x {p.per_step * 1e3:.3g} ms: its first {p.probed} steps' cost, times "
-            f"{LATER_STEPS_FACTOR:g} for the later steps, dearer once the robot moves; allowed: a run projected within max_wall_s): "
+            f"max_wall_s={budget:g}: this run could take {about} s of wall time ({n_steps:,} steps of dt={dt:.3g} s: its first "
+            f"{p.probed} steps cost {p.per_step * 1e3:.3g} ms a step, and later steps up to {LATER_STEPS_FACTOR:g} times more once "
+            "the robot moves; allowed: a run projected within max_wall_s): "
             "shorten duration_s, give a coarser dt, or raise max_wall_s (None: no limit)"
         )
     return p
