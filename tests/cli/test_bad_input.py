@@ -345,6 +345,15 @@ def test_cli_simulate_refuses_in_one_line(tmp_path: Path, capsys: pytest.Capture
     assert not (tmp_path / "r.nc").exists()
 
 
+def test_cli_simulate_refuses_a_run_over_its_wall_budget_and_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "r.nc"
+    assert main(["simulate", "--duration-s", "1", "--max-wall-s", "0.001", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    one_line(err)
+    assert err.startswith("error: max_wall_s=0.001: this run could take") and "20,000 steps of dt=5e-05 s" in err, err
+    assert not out.exists()
+
+
 def test_degenerate_runs_are_valid_and_said() -> None:
     assert run_notes(run_inputs(duration_s=0.01)) == []
     notes = run_notes(run_inputs(duration_s=0.01, field_mT=0.0))
@@ -393,4 +402,38 @@ def test_accepted_extremes_finish_or_are_refused_within_ten_seconds(kw: dict[str
         one_line(str(exc))
     else:
         assert ds.sizes["time"] >= 2 and "status" in ds.attrs
+    assert time.perf_counter() - t0 < 10.0
+
+
+#: plausible extremes at their default duration (2 s) and step: up to five million steps;
+#: the wall-time guard (tumblemc.model.cost) refuses those that would take long
+LONG_EXTREMES: list[dict[str, Any]] = [
+    {"mass": 1e-12},  # default step 3.8e-7 s: 5.2 million steps
+    {"mass": 1e-12, "dt": 5e-5},  # 40,000 steps of a stiff contact solve, 14-35 ms each
+    {"magnetization": 2e6, "field_mT": 1000.0},  # 1.1 million steps
+    {"omega0": (1e5, 0.0, 0.0)},  # 680,000 steps, a first step of 0.5 s
+    {"V_m": 1e-6},  # 2.4 million steps
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kw", LONG_EXTREMES, ids=lambda kw: ",".join(kw))
+def test_long_extremes_finish_or_are_refused_within_ten_seconds_under_a_small_budget(kw: dict[str, Any]) -> None:
+    t0 = time.perf_counter()
+    try:
+        ds = simulate(**kw, max_wall_s=2.0)
+    except ValueError as exc:
+        one_line(str(exc))
+        assert str(exc).startswith("max_wall_s=2: this run could take"), exc
+    else:
+        assert ds.attrs["n_steps"] > 20_000
+    assert time.perf_counter() - t0 < 10.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kw", LONG_EXTREMES[:2], ids=lambda kw: ",".join(kw))
+def test_the_lightest_robot_is_refused_under_the_default_budget(kw: dict[str, Any]) -> None:
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match=r"^max_wall_s=600: this run could take [\d,]+ s of wall time \("):
+        simulate(**kw)
     assert time.perf_counter() - t0 < 10.0

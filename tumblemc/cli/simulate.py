@@ -21,7 +21,8 @@ from tumblemc.cli.common import (
 )
 from tumblemc.io import write_run
 from tumblemc.kernels.batch import BATCH_ENERGY_GAIN
-from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
+from tumblemc.model.cost import DEFAULT_MAX_WALL_S
+from tumblemc.model.solver_options import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.schema import STATUS_MEANINGS
 
 
@@ -52,6 +53,12 @@ def register(sub: Any) -> None:
         dest="overrides",
         help="override a parameter, e.g. --set mu=0.4 or --set offset_axis=1,0,0 (repeatable)",
     )
+    s.add_argument(
+        "--max-wall-s",
+        type=float,
+        default=DEFAULT_MAX_WALL_S,
+        help="wall-time budget, s: a long run is refused if its first steps project more (default: 600; inf: no limit)",
+    )
     s.add_argument("--out", default="run.nc", help="output netCDF path (default: run.nc)")
     s.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
     s.set_defaults(run=run)
@@ -69,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     kw.update(torque=args.torque, rotation=args.rotation, record_every=args.record_every, **overrides)
     for note in run_notes(run_inputs(**kw)):  # valid, but maybe not what was meant
         print(f"note: {note}", file=sys.stderr)
-    ds = simulate(**kw)
+    ds = simulate(**kw, max_wall_s=args.max_wall_s)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_run(ds, out)
     print(f"wrote {out}")

@@ -14,6 +14,7 @@ from tumblemc.kernels import layout as L
 from tumblemc.kernels.geometry import Geometry
 from tumblemc.kernels.residual import n_unknowns
 from tumblemc.kernels.stepper import Buffers, Clock, Model, Start, empty_record, make_buffers, n_records, run
+from tumblemc.model.cost import DEFAULT_MAX_WALL_S, check_cost
 from tumblemc.model.energy import ENERGY_GAIN_TOL, energy_summary, ledger_variables
 from tumblemc.model.fields import (
     SEG_FREQ,
@@ -34,7 +35,7 @@ from tumblemc.model.params import RANGES, Params, check_choice, check_number, ge
 from tumblemc.model.plausible import check_motion, check_resolved, check_solver
 from tumblemc.model.shapes.library import get_shape
 from tumblemc.model.shapes.types import Shape
-from tumblemc.model.solver_options import SolverOptions
+from tumblemc.model.solver_options import DEFAULT_ROTATION, ROTATION_OPTIONS, TORQUE_END_WEIGHT, TORQUE_OPTIONS, SolverOptions
 from tumblemc.model.step_size import CEILING_S, default_step
 from tumblemc.model.units import LENGTH_M, Units
 from tumblemc.schema import RUN_STATUS_MEANINGS, annotate
@@ -46,17 +47,6 @@ from tumblemc.version import __version__
 #: of the step (aluminum 20 deg binds: 0.895 at 1e-4 against 0.876). A run's default is this
 #: or a whole divisor of it, from what the run must resolve (model/step_size.py).
 DEFAULT_DT = CEILING_S
-
-#: the magnetic torque of a step: at its start (the default), at its end pose (the paper's) or
-#: their mean ("mid", the trapezoid of the midpoint integrator, rotation="midpoint")
-TORQUE_OPTIONS: tuple[str, ...] = ("start", "end", "mid")
-TORQUE_END_WEIGHT = {"start": 0.0, "end": 1.0, "mid": 0.5}
-#: the rotational row (MODEL.md): "momentum" (the default), (I+ w+ - I w)/h, which keeps a free
-#: body's angular momentum; "paper", I+ (w+ - w)/h + w x (I+ w) (forward Euler on Euler's
-#: equations: it makes energy in a spin off a principal axis); "midpoint", the momentum row
-#: with the pose turned by the mean of w and w+ (70x less damping of a free spin)
-ROTATION_OPTIONS: tuple[str, ...] = ("momentum", "paper", "midpoint")
-DEFAULT_ROTATION = "momentum"
 
 
 MAX_RECORD_BYTES = 2 * 2**30  # memory of one run's record
@@ -305,20 +295,22 @@ def initial_contact(spec: RunSpec) -> tuple[float, bool]:
     return area / spec.units.area, resting
 
 
-def run_spec(spec: RunSpec, buffers: Buffers | None = None) -> tuple[np.ndarray, int, int]:
+def run_spec(spec: RunSpec, buffers: Buffers | None = None, n_steps: int | None = None) -> tuple[np.ndarray, int, int]:
     """Run the kernel for ``spec``; returns ``(rec, status, failed_steps)`` (scaled).
 
     ``buffers`` (:func:`~tumblemc.kernels.stepper.make_buffers`) may be reused across runs
     of one shape; the unknowns are zeroed first, so a run never depends on the previous one.
+    ``n_steps`` runs only the first steps (the cost probe, :mod:`tumblemc.model.cost`).
     """
+    n_steps = spec.n_steps if n_steps is None else n_steps
     geo = spec.geo
     buf = buffers or make_buffers(n_unknowns(geo.pstart))
     for arr in (buf.z, buf.z6, buf.zsave):
         arr[:] = 0.0
-    rec = empty_record(spec.n_steps, spec.record_every)
+    rec = empty_record(n_steps, spec.record_every)
     area0, resting = initial_contact(spec)
     start = Start(state=spec.state0.copy(), t0=0.0, area0=area0, touch0=resting)
-    clock = Clock(h=spec.h, n_steps=spec.n_steps, record_every=spec.record_every)
+    clock = Clock(h=spec.h, n_steps=n_steps, record_every=spec.record_every)
     status, failed, _ = run(Model(prm=spec.prm, geo=geo), spec.solver.as_array(), start, clock, rec, buf)
     return rec, int(status), int(failed)
 
@@ -423,6 +415,7 @@ def simulate(
     lift_m: float = 0.0,
     v0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     omega0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    max_wall_s: float | None = DEFAULT_MAX_WALL_S,
     **overrides: Any,
 ) -> xr.Dataset:
     """Simulate one tumbling robot and return its time series.
@@ -466,6 +459,9 @@ def simulate(
     lift_m, v0, omega0 : optional
         Initial height above the resting pose (m), velocity (m/s) and angular velocity
         (rad/s, world frame); by default the robot starts at rest, lying flat (MODEL.md).
+    max_wall_s : float or None
+        Wall-time budget, s (default 600; None: no limit): a long run is first probed on its
+        first steps and refused if its projected time exceeds this (:mod:`tumblemc.model.cost`).
     **overrides
         Any :class:`~tumblemc.params.Params` field by name (``mu=0.4``, ``mass=...``).
 
@@ -496,5 +492,6 @@ def simulate(
             **overrides,
         )
     )
+    check_cost(spec.n_steps, spec.dt, lambda n: run_spec(spec, n_steps=n), max_wall_s)
     rec, status, failed = run_spec(spec)
     return to_dataset(spec, rec, status, failed)

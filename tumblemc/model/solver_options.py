@@ -1,4 +1,4 @@
-"""The solver's options (:class:`SolverOptions`: Newton, sub-stepping and landing rules; validated, frozen)."""
+"""The solver's options (:class:`SolverOptions`: Newton, sub-stepping and landing rules; validated); the torque and rotation rows."""
 
 from __future__ import annotations
 
@@ -7,6 +7,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from tumblemc.model.params import check_number
+
+#: the magnetic torque of a step: at its start (the default), at its end pose (the paper's) or
+#: their mean ("mid", the trapezoid of the midpoint integrator, rotation="midpoint")
+TORQUE_OPTIONS: tuple[str, ...] = ("start", "end", "mid")
+TORQUE_END_WEIGHT = {"start": 0.0, "end": 1.0, "mid": 0.5}
+#: the rotational row (MODEL.md): "momentum" (the default), (I+ w+ - I w)/h, which keeps a free
+#: body's angular momentum; "paper", I+ (w+ - w)/h + w x (I+ w) (forward Euler on Euler's
+#: equations: it makes energy in a spin off a principal axis); "midpoint", the momentum row
+#: with the pose turned by the mean of w and w+ (70x less damping of a free spin)
+ROTATION_OPTIONS: tuple[str, ...] = ("momentum", "paper", "midpoint")
+DEFAULT_ROTATION = "momentum"
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import xarray as xr
 
 from tumblemc.model.energy import ENERGY_GAIN_TOL
 from tumblemc.model.rows import RunRow, TimeGrid, simulate_rows
-from tumblemc.model.run import DEFAULT_ROTATION
+from tumblemc.model.solver_options import DEFAULT_ROTATION
 from tumblemc.schema import STATUS_NAMES, STATUS_TABLE
 from tumblemc.testing import REPRODUCERS
 from tumblemc.viz.stress import stress_figure

@@ -155,8 +155,8 @@ from pathlib import Path
 from typing import Any
 
 from tumblemc.model.params import PRESETS, RANGES
-from tumblemc.model.run import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.model.shapes import SHAPES
+from tumblemc.model.solver_options import ROTATION_OPTIONS, TORQUE_OPTIONS
 from tumblemc.schema import CI_METHODS
 from tumblemc.study.budget import MAX_RUN_MEMORY_GIB, MAX_RUNS, MAX_STEPS_PER_RUN, check_budget, count_cells
 from tumblemc.study.checkcfg import CheckConfig, parse_check
