@@ -444,15 +444,17 @@ def simulate(
         :data:`DEFAULT_DT` (set by the convergence study) or a whole divisor of it that
         resolves the field's period, the magnet's natural frequency and the initial spin
         (the run's ``dt_rule`` attribute says which).
-    rotation : {"momentum", "paper"}
+    rotation : {"momentum", "paper", "midpoint"}
         The rotational row of the discrete model: ``"momentum"`` (default), which keeps a
         free body's angular momentum and never makes energy (MODEL.md, "The discrete
-        model"), or ``"paper"``, the paper's explicit gyroscopic form, which gains energy in
-        a spin off a principal axis (the energy ledger flags such runs). Planar motion is
-        the same in both to rounding.
-    torque : {"start", "end"}
-        Where in the step the magnetic torque is evaluated: ``"start"`` (default, accurate)
-        or ``"end"`` (the paper's choice; numerically damped, see MODEL.md "Numerics").
+        model"); ``"paper"``, the paper's explicit gyroscopic form, which gains energy in
+        a spin off a principal axis (the energy ledger flags such runs); ``"midpoint"``
+        (with ``torque="mid"``), the pose turned by the mean velocity, far less damping of
+        fast spins (docs/notes/step_size.md). Planar motion is the same in the first two.
+    torque : {"start", "end", "mid"}
+        Where in the step the magnetic torque is evaluated: ``"start"`` (default, accurate),
+        ``"end"`` (the paper's choice; numerically damped, see MODEL.md "Numerics") or
+        ``"mid"`` (their mean).
     record_every : int
         Record every k-th step (iteration counts are summed, penetration is maxed).
     solver : SolverOptions, optional
