@@ -170,7 +170,7 @@ def _bench_files(tmp: Path) -> list[tuple[str, Path, str]]:
     rows = "".join(f"{b},{t}\n" for b, t in [(3, 0), (5, 0), (7, 52.1)])
     texts = {
         "tilt 500": ("field_mT,tilt_deg\n3,0\n5,500\n7,700\n", "line 3: tilt_deg=500 is out of range"),
-        "tilt -5": ("field_mT,tilt_deg\n3,-5\n5,0\n", "tilt_deg=-5 is out of range"),
+        "tilt -20": ("field_mT,tilt_deg\n3,-20\n5,0\n", "tilt_deg=-20 is out of range"),
         "negative field": ("field_mT,tilt_deg\n-3,0\n5,10\n", "line 2: field_mT=-3 is out of range"),
         "all-zero field": ("field_mT,tilt_deg\n0,0\n0.0,0\n", "line 3: repeats field_mT=0"),
         "zero fields": ("field_mT,tilt_deg\n0,0\n-0.0,1\n", "gives another tilt_deg"),

@@ -43,7 +43,11 @@ _FIELD, _FREQ = RANGES["field_mT"], RANGES["freq_hz"]
 #: column -> (lo, hi, lo excluded, unit, why): the values a bench test can give
 COLUMN_RANGES: dict[str, tuple[float, float, bool, str, str]] = {
     "field_mT": (0.0, _FIELD.plausible_hi, False, "mT", f"a field magnitude; its direction is --direction; {_FIELD.why}"),
-    "tilt_deg": (0.0, 180.0, False, "degree", "the angle between the robot's bottom face and the substrate"),
+    "tilt_deg": (
+        *(-10.0, 180.0, False, "degree"),
+        "the angle between the robot's bottom face and the substrate; a reading below 0 is a flat robot's measurement noise, "
+        "more than 10 deg of it is not noise",
+    ),
     "freq_hz": (0.0, _FREQ.hi, True, "Hz", "the field's rotation rate, as the simulator takes it"),
     "speed_mm_s": (-1e4, 1e4, False, "mm/s", "10 m/s; a 0.1 mm robot tumbling at 10 kHz makes about 4 m/s"),
     "incline_deg": (RANGES["incline_deg"].lo, RANGES["incline_deg"].hi, False, "degree", "the simulator's incline range"),
