@@ -19,7 +19,7 @@ from tumblemc.kernels.stepper import n_records
 from tumblemc.model.params import RANGES
 from tumblemc.model.rows import record_stride
 from tumblemc.study.checks import config_error
-from tumblemc.study.stepcfg import cell_dt
+from tumblemc.study.stepcfg import cell_dt, searched_axis
 
 #: defaults of the ``[execution]`` bounds: about 100x the default study's 20,800 runs (its
 #: design table then takes a few hundred MB), 2,500x the steps of its runs (2 s at 5e-5 s:
@@ -85,8 +85,8 @@ def check_budget(cfg: Any) -> None:
             f"at most {have / 2**30:.3g} GiB, half this machine's memory; fewer samples or cells, or split the study",
         )
     key = "dt" if cfg.dt is not None else "periods"
-    searched = cfg.mode == "threshold" and cfg.threshold_axis == "freq_hz"  # one step per robot: the fastest frequency's
-    for f in cfg.freq_hz:  # the finest cell step at each frequency (the strongest field), as stepcfg.row_dt gives it
+    searched = searched_axis(cfg) == "freq_hz"  # one step per robot: the fastest frequency's (stepcfg.row_dt)
+    for f in cfg.freq_hz:  # the finest cell step at each frequency (the strongest field)
         dt = min(cell_dt(cfg, shape, sub, None, None if searched else f) for shape in cfg.shapes for sub in cfg.presets)
         for fine in (False, True):
             h = dt / cfg.check.dt_factor if fine else dt

@@ -63,8 +63,8 @@ def identity_json(config: StudyConfig) -> str:
             table = table[p]
         if leaf in table and table[leaf] == default:
             del table[leaf]
-    if config.dt is None and _steps_differ(config):  # each cell at its own step since issue 45: not
-        d["dt_rule"] = "per cell"  # the study-wide step of earlier studies, whose shards are refused, not mixed in
+    if config.dt is None and _steps_differ(config):  # cells at different steps: studies run before
+        d["dt_rule"] = "per cell"  # ran every cell at the finest one, so their shards are refused, not mixed in
     return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 

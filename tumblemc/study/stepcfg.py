@@ -39,13 +39,18 @@ def _default_step(shape: str, substrate: str, field_mT: float, freqs: tuple[floa
     return float(default_step(get_shape(shape).inertia(p.mass), p.V_m * p.magnetization, field_mT, list(freqs)).dt)
 
 
+def searched_axis(cfg: Any) -> str | None:
+    """The axis a threshold study searches (its runs share the axis's most demanding step), else None."""
+    return str(cfg.threshold_axis) if cfg.mode == "threshold" else None
+
+
 def row_dt(cfg: Any, row: Mapping[str, Any] | Any) -> float:
     """:func:`cell_dt` of a run-table row (``shape``, ``substrate``, nominal ``field_mT``, ``freq_hz``).
 
     A threshold study's searched axis, and a dimension the row does not hold, count at the
     study's most demanding value.
     """
-    searched = cfg.threshold_axis if cfg.mode == "threshold" else None
+    searched = searched_axis(cfg)
     vals = {k: (None if k == searched or k not in row else float(np.asarray(row[k]).item())) for k in ("field_mT", "freq_hz")}
     return cell_dt(cfg, str(np.asarray(row["shape"]).item()), str(np.asarray(row["substrate"]).item()), **vals)
 
@@ -72,4 +77,4 @@ def step_attrs(cfg: Any) -> dict[str, Any]:
     return attrs
 
 
-__all__ = ["cell_dt", "row_dt", "step_attrs", "study_dt"]
+__all__ = ["cell_dt", "row_dt", "searched_axis", "step_attrs", "study_dt"]
