@@ -40,6 +40,12 @@ def register(sub: Any) -> None:
         default="auto",
         help="auto (default: MCMC with the closed form, Laplace with the simulator), mcmc (closed form only), laplace",
     )
+    p.add_argument(
+        "--noise-sd",
+        type=float,
+        default=None,
+        help="the data's noise sd, when the instrument's is known (data units; MCMC only; default: unknown, marginalised)",
+    )
     p.add_argument("--samples", type=int, default=2000, help="posterior draws (default: 2000)")
     p.add_argument("--seed", type=int, default=0, help="seed of the global search and the sampler (default: 0)")
     add_robot_and_output(p, "calib.nc")
@@ -75,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         args.samples,
         seed=args.seed,
         posterior=args.posterior,
+        noise_sd=args.noise_sd,
         **overrides,
     )
     print("\n".join(report(res)))

@@ -159,12 +159,15 @@ def calibrate(  # noqa: C901
     screen: int | None = None,
     starts: int = 2,
     posterior: str = "auto",
+    noise_sd: float | None = None,
     **fixed: Any,
 ) -> xr.Dataset:
     """Fit the ``free`` Params fields to bench ``data`` and draw their posterior.
 
     ``posterior``: ``auto`` (default: MCMC where the closed form is the forward model,
-    Laplace with the simulator), ``mcmc`` (closed form only) or ``laplace``.
+    Laplace with the simulator), ``mcmc`` (closed form only) or ``laplace``. ``noise_sd``:
+    the data's noise sd when the instrument's is known (MCMC only); by default it is
+    unknown and marginalised under the prior ``1/sigma`` (the likelihood ``SSR^(-n/2)``).
 
     Returns
     -------
@@ -197,6 +200,8 @@ def calibrate(  # noqa: C901
     f = forward_model(bench, shape, preset, direction, fit_model, **fixed)
     cheap = fit_model == "closed-form"
     method = ("mcmc" if cheap else "laplace") if posterior == "auto" else posterior
+    if noise_sd is not None and not (method == "mcmc" and isinstance(noise_sd, (int, float)) and 0.0 < noise_sd < math.inf):
+        raise ValueError(f"noise_sd={noise_sd!r} is not allowed (allowed: a positive finite sd in the data's unit, with MCMC)")
     if method == "mcmc" and not cheap:
         raise ValueError("posterior='mcmc' needs the closed-form forward model (allowed with the simulator: laplace, or auto)")
     nominal = get_preset(preset)
@@ -255,7 +260,10 @@ def calibrate(  # noqa: C901
             ok = np.all((zz >= 0.0) & (zz <= 1.0), axis=1)
             if ok.any():
                 ssr = np.sum((batch(bench.x, sc.to_values(zz[ok])) - bench.y) ** 2, axis=1)
-                out[ok] = -0.5 * n * np.log(np.maximum(ssr, 1e-300))
+                if noise_sd is None:  # the sd unknown, marginalised under the prior 1/sigma
+                    out[ok] = -0.5 * n * np.log(np.maximum(ssr, 1e-300))
+                else:
+                    out[ok] = -0.5 * ssr / noise_sd**2
             return out
 
         chain = mc.sample_posterior(log_post, sol.x, n_posterior, seed)
@@ -267,7 +275,8 @@ def calibrate(  # noqa: C901
         x_grid = np.linspace(max(lo_x - 0.1 * (hi_x - lo_x), 0.0), hi_x + 0.05 * (hi_x - lo_x), GRID_POINTS)
         pred = batch(bench.x, draws)
         if method == "mcmc":  # sigma^2 | theta, data ~ SSR / chi^2_n under the prior 1/sigma
-            sd_draws = mc.noise_sd_draws(np.sum((pred - bench.y) ** 2, axis=1), n, rng)
+            ssr = np.sum((pred - bench.y) ** 2, axis=1)
+            sd_draws = mc.noise_sd_draws(ssr, n, rng) if noise_sd is None else np.full(len(pred), float(noise_sd))
         at_data = mc.bands(pred, sd_draws, rng)
         on_grid = mc.bands(batch(x_grid, draws), sd_draws, rng)
         grid_fit = batch(x_grid, est[None, :])[0]
@@ -347,6 +356,7 @@ def calibrate(  # noqa: C901
             "jacobian_step_ratio": ratio.tolist(),
             "posterior": label,
             "posterior_method": method,
+            "noise_model": "unknown sd, marginalised (prior 1/sigma)" if noise_sd is None else f"known sd {float(noise_sd):g}",
             "autocorr_steps": chain.tau.tolist() if chain else [],
             "mcmc_steps": chain.n_steps if chain else 0,
             "mcmc_long_enough": int(bool(chain and chain.n_steps >= mc.TAU_FACTOR * float(np.max(chain.tau)))),
@@ -379,7 +389,7 @@ def report(ds: xr.Dataset) -> list[str]:
         lo, hi = np.quantile(ds[nm].values, [0.025, 0.975])
         est = float(ds[f"estimate_{nm}"])
         lines.append(f"{nm:>14s} = {est:.6g} (95% {lo:.6g} .. {hi:.6g}, posterior sd {float(ds[nm].std()):.3g}) {ds[nm].attrs['units']}")
-    lines.append(f"posterior: {a['posterior']}")
+    lines.append(f"posterior: {a['posterior']}" + (f"; noise: {a['noise_model']}" if "noise_model" in a else ""))
     if a.get("posterior_method") == "mcmc":
         tau = ", ".join(f"{t:.0f}" for t in a["autocorr_steps"])
         ok = (

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from tumblemc.lab.bounds import check_free
 from tumblemc.lab.calibrate import BenchData, calibrate
 from tumblemc.lab.mcmc import tilt_balance_batch
 
@@ -32,6 +33,7 @@ def coverage(
     heldout_clean: np.ndarray | None = None,
     n_posterior: int = 1000,
     shift_mT: float = 0.0,
+    prior: dict[str, tuple[float, float]] | None = None,
     **options: Any,
 ) -> xr.Dataset:
     """Coverage of the posterior's central ``level`` intervals, and its predictions, on synthetic static-tilt data.
@@ -47,6 +49,15 @@ def coverage(
     ``[0, shift_mT)``, the noise-free tilts then from the closed form: where the data fall
     relative to the lift-off field varies as it would between labs.
 
+    ``prior`` (bounds per free parameter, the keys of ``truth``): each replicate's truth is
+    drawn from the calibration's prior on these bounds (uniform in the sampling scale, log10
+    for scale parameters), which are also the calibration's ``bounds``, and its noise-free
+    tilts come from the closed form. This is simulation-based calibration: averaged over
+    truths drawn from the prior, an exact posterior's central intervals hold the truth at
+    their level, and the truth's rank among the draws is uniform, whatever the shape of the
+    likelihood; at one fixed truth, no interval promises that where the likelihood is a
+    cliff (a lift-off between two data fields).
+
     Returns
     -------
     xarray.Dataset
@@ -55,11 +66,14 @@ def coverage(
         ``liftoff_share`` (share of draws tilting at every field whose datum exceeds 3 noise
         sd; NaN without such a field), ``heldout_share`` (held-out points inside the 95%
         predictive band), ``predictive_share`` (the data inside theirs), ``fit_s``,
-        ``tau_max`` (largest autocorrelation time, steps; NaN for Laplace).
+        ``tau_max`` (largest autocorrelation time, steps; NaN for Laplace); ``rank``
+        (replicate x param: the share of draws below the truth) and ``truth_value``.
     """
     truth = truth or {"F_elect": 2.5e-6, "offset_deg": 22.0}
     if shift_mT > 0.0 and (clean is not None or heldout_clean is not None):
         raise ValueError(f"shift_mT={shift_mT:g} recomputes the noise-free tilts (allowed: clean=None, heldout_clean=None, or shift_mT=0)")
+    if prior is not None and (shift_mT > 0.0 or clean is not None or heldout_clean is not None or "bounds" in options):
+        raise ValueError("prior= draws each truth and its tilts (allowed with it: shift_mT=0, clean=None, heldout_clean=None, no bounds)")
     x = np.asarray(fields_mT, float)
     if clean is None:
         clean = tilt_balance_batch(x, "paper", None, **truth)
@@ -69,6 +83,11 @@ def coverage(
     x0, xh0 = x.copy(), xh.copy()
     rng = np.random.default_rng(seed)
     names = list(truth)
+    scales = check_free(names, prior, "paper") if prior is not None else None
+    if prior is not None:
+        options = dict(options, bounds=prior)
+    values = np.tile(np.array([truth[nm] for nm in names], float), (n_rep, 1))
+    rank = np.zeros((n_rep, len(names)))
     hit = np.zeros((n_rep, len(names)), bool)
     width = np.zeros((n_rep, len(names)))
     undet = np.zeros((n_rep, len(names)), bool)
@@ -81,6 +100,10 @@ def coverage(
             d = rng.uniform(0.0, shift_mT)
             x, xh = x0 + d, xh0 + d
             clean, heldout_clean = tilt_balance_batch(x, "paper", None, **truth), tilt_balance_batch(xh, "paper", None, **truth)
+        if scales is not None:
+            values[i] = scales.to_values(rng.uniform(0.0, 1.0, len(names)))
+            truth = {nm: float(v) for nm, v in zip(names, values[i], strict=True)}
+            clean, heldout_clean = tilt_balance_batch(x, "paper", None, **truth), tilt_balance_batch(xh, "paper", None, **truth)
         y = clean + rng.normal(0.0, noise_deg, x.size)
         yh = heldout_clean + rng.normal(0.0, noise_deg, xh.size)
         data = BenchData("static_tilt", "field_mT", "tilt_deg", "degree", x, y, "synthetic")
@@ -90,10 +113,11 @@ def coverage(
         for j, nm in enumerate(names):
             a, b = np.quantile(post[nm].values, [q, 1 - q])
             hit[i, j] = a <= truth[nm] <= b
+            rank[i, j] = float(np.mean(post[nm].values < truth[nm]))
             width[i, j] = b - a
             undet[i, j] = nm in post.attrs["undetermined"].split(",")
         draws = {nm: post[nm].values[:, None] for nm in names}
-        fixed = {k: v for k, v in options.items() if k not in ("bounds", "posterior", "starts", "screen", "band_draws")}
+        fixed = {k: v for k, v in options.items() if k not in ("bounds", "posterior", "starts", "screen", "band_draws", "noise_sd")}
         clear = y > 3.0 * noise_deg
         if clear.any():
             pred = tilt_balance_batch(x[clear], "paper", fixed, **draws)
@@ -111,6 +135,8 @@ def coverage(
             "undetermined_share": ("param", undet.mean(0), {"units": "1", "long_name": "share of fits flagging it undetermined"}),
             "mean_width": ("param", width.mean(0), {"long_name": "mean interval width (parameter units)"}),
             "covered": (("replicate", "param"), hit),
+            "rank": (("replicate", "param"), rank, {"units": "1", "long_name": "share of posterior draws below the truth"}),
+            "truth_value": (("replicate", "param"), values),
             **{k: ("replicate", v) for k, v in per.items()},
         },
         coords={"param": names},
@@ -118,9 +144,10 @@ def coverage(
             "n_rep": n_rep,
             "noise_deg": noise_deg,
             "level": level,
-            "truth": repr(truth),
+            "truth": repr(truth) if prior is None else "drawn from the prior",
             "fields_mT": x0.tolist(),
             "shift_mT": shift_mT,
+            "prior": repr(prior),
         },
     )
 

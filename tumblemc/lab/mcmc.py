@@ -155,7 +155,10 @@ def sample_posterior(
         calls[0] += len(z)
         return log_post(z)
 
-    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    # the snooker move projects on the line between two walkers, which in one dimension is the
+    # axis itself: its Metropolis factor divides zero by zero (NaN proposals); the stretch move there
+    snooker = emcee.moves.DESnookerMove() if p > 1 else emcee.moves.StretchMove()
+    moves = [(emcee.moves.DEMove(), 0.8), (snooker, 0.2)]
     sampler = emcee.EnsembleSampler(k, p, lp, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(seed).get_state()
     state = sampler.run_mcmc(start, BURN_STEPS)
