@@ -15,9 +15,10 @@ progress ratio and P(success) (ratio >= 0.5) with Wilson 95% intervals.
 twins at h with the magnetisation x (1 +- 1e-6): a run is *converged* when the ladder's
 spread is within 0.05, *sensitive* when the twins move it as much as the ladder does.
 
-    python experiments/step_size.py ensemble [--robots 100] [--workers 2]
+    python experiments/step_size.py ensemble [--robots 100] [--workers 2] [--steps default,default/4,default/16,5e-5]
     python experiments/step_size.py ladder
     python experiments/step_size.py twins       # the twins at h, h/4, h/16
+    python experiments/step_size.py swarm [--twins 32] [--save PREFIX]  # 32 twins per rung, 1e-6 in random directions
     python experiments/step_size.py stepout     # paper cuboid, flat, 20 mT: default, /4, /16
     python experiments/step_size.py spin        # free-spin energy drift per integrator option
 """
@@ -106,7 +107,10 @@ def ensemble(args: argparse.Namespace) -> None:
         rs = robots(cell, args.robots)
         h = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"]).dt
         base = None
-        for label, dt in (("default", None), ("default/4", h / 4), ("5e-5", 5e-5)):
+        steps = [
+            (lab, None if lab == "default" else (5e-5 if lab == "5e-5" else h / int(lab.split("/")[1]))) for lab in args.steps.split(",")
+        ]
+        for label, dt in steps:
             t0 = time.perf_counter()
             with ProcessPoolExecutor(args.workers) as ex:
                 res = list(ex.map(one, [cell] * len(rs), rs, [dt] * len(rs)))
@@ -183,6 +187,78 @@ def twins(args: argparse.Namespace) -> None:
             ratios.append(r0)
             print(f"| {cell} | h/{k} | {r0:.3f} | {r1:.3f}, {r2:.3f} | {spread:.3f} |", flush=True)
         print(f"| {cell} | verdict | {classify(ratios, spreads)} | | |", flush=True)
+
+
+def _twin_overrides(nom: dict[str, float], magnetization: float, offset0: float, n: int, seed: int) -> list[dict[str, float]]:
+    """``n`` twins of the nominal robot, each a change of relative size 1e-6 of its magnetisation vector.
+
+    Twin i moves the magnitude by 1e-6 cos(t_i) of itself and turns the direction by 1e-6 sin(t_i) rad
+    in the offset plane (the offset angle), t_i uniform on the circle: |dm| / |m| = 1e-6 for every twin.
+    """
+    t = np.random.default_rng(seed).uniform(0.0, 2.0 * math.pi, n)
+    return [
+        dict(nom, magnetization=magnetization * (1.0 + 1e-6 * math.cos(a)), offset_deg=offset0 + math.degrees(1e-6 * math.sin(a)))
+        for a in t
+    ]
+
+
+def swarm(args: argparse.Namespace) -> None:
+    """The nominal robot and ``--twins`` twins (each a 1e-6 change of the magnetisation vector) at each rung.
+
+    Two twins (the magnitude x (1 -+ 1e-6), stage ``twins``) sample the ratio's response to a
+    1e-6 change at two points; a chaotic run's response is a distribution, and this stage
+    samples it: per rung the nominal ratio, the twins' median and range, and the verdict of
+    :func:`classify_swarm`. ``--save`` writes the ratios to ``<save>_<cell>.npz``.
+    """
+    from tumblemc.model.params import get_preset
+
+    divs = [int(x) for x in args.divs.split(",")]
+    print(f"| cell | step | nominal ratio | {args.twins} twins: median | twins: range | twins' spread (with the nominal) | invalid |")
+    print("|---|---|---|---|---|---|---|")
+    for cell in args.cells.split(","):
+        magnetization, nom, h = _nominal(cell)
+        if args.midpoint:
+            nom = dict(nom, rotation="midpoint", torque="mid")
+        offset0 = nom.get("offset_deg", get_preset(CELLS[cell]["preset"]).offset_deg)
+        tw = _twin_overrides(nom, magnetization, offset0, args.twins, seed=list(CELLS).index(cell))
+        runs = [(o, h / k) for k in divs for o in [nom, *tw]]
+        t0 = time.perf_counter()
+        with ProcessPoolExecutor(args.workers) as ex:
+            res = list(ex.map(one, [cell] * len(runs), [r[0] for r in runs], [r[1] for r in runs]))
+        m = args.twins + 1
+        ratio = np.array([x[0] for x in res]).reshape(len(divs), m)
+        status = np.array([x[1] for x in res]).reshape(len(divs), m)
+        for i, k in enumerate(divs):
+            r = ratio[i]
+            print(
+                f"| {cell} | h/{k} ({h / k:.3g} s) | {r[0]:.3f} | {np.median(r[1:]):.3f} | {r[1:].min():.3f} .. {r[1:].max():.3f} "
+                f"| {r.max() - r.min():.3f} | {int(np.sum(status[i] != 0))} |",
+                flush=True,
+            )
+        print(f"| {cell} | verdict | {classify_swarm(ratio)} | | | | {time.perf_counter() - t0:.0f} s |", flush=True)
+        if args.save:
+            np.savez(f"{args.save}_{cell}.npz", ratio=ratio, status=status, divs=np.array(divs), h=h)
+
+
+def classify_swarm(ratio: np.ndarray, tol: float = 0.05) -> str:
+    """Converged, sensitive or not converged from rungs x (nominal, twins...) ratios.
+
+    *converged*: the nominal ratios of the rungs within ``tol`` of each other. *sensitive*
+    (the issue's test, read literally): a 1e-6 change of the magnetisation moves the ratio
+    as much as the ladder does, i.e. at some rung the spread of the nominal and its twins is
+    at least the spread of the nominal ratios over the rungs. Else *not converged*. Also
+    says how many rungs' nominal ratios fall inside the finest rung's twins' range.
+    """
+    nominal = ratio[:, 0]
+    ladder_spread = float(nominal.max() - nominal.min())
+    twin = float((ratio.max(axis=1) - ratio.min(axis=1)).max())
+    lo, hi = ratio[-1].min(), ratio[-1].max()
+    inside = int(np.sum((nominal >= lo) & (nominal <= hi)))
+    tail = f"{inside} of {len(nominal)} rungs' ratios inside the finest rung's twins' range {lo:.3f} .. {hi:.3f}"
+    if ladder_spread <= tol:
+        return f"converged (ladder spread {ladder_spread:.3f}); {tail}"
+    word = "sensitive" if twin >= ladder_spread else "not converged"
+    return f"{word} (ladder spread {ladder_spread:.3f}, twins' spread up to {twin:.3f}); {tail}"
 
 
 def classify(ratios: list[float], spreads: list[float], tol: float = 0.05) -> str:
@@ -271,7 +347,10 @@ def spin(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["ensemble", "ladder", "twins", "stepout", "spin"])
+    ap.add_argument("stage", choices=["ensemble", "ladder", "twins", "swarm", "stepout", "spin"])
+    ap.add_argument("--steps", default="default,default/4,5e-5", help="ensemble: steps (default, default/K, 5e-5); the first is the base")
+    ap.add_argument("--twins", type=int, default=32, help="swarm: twins per rung")
+    ap.add_argument("--midpoint", action="store_true", help="swarm: the midpoint rule (rotation='midpoint', torque='mid')")
     ap.add_argument("--robots", type=int, default=100)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cells", default=",".join(CELLS))
@@ -280,7 +359,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     if args.stage == "stepout" and args.divs == "1,4,16,64":
         args.divs = "1,4,16"
-    {"ensemble": ensemble, "ladder": ladder, "twins": twins, "stepout": stepout, "spin": spin}[args.stage](args)
+    {"ensemble": ensemble, "ladder": ladder, "twins": twins, "swarm": swarm, "stepout": stepout, "spin": spin}[args.stage](args)
 
 
 if __name__ == "__main__":
