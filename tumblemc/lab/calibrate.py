@@ -200,7 +200,8 @@ def calibrate(  # noqa: C901
     f = forward_model(bench, shape, preset, direction, fit_model, **fixed)
     cheap = fit_model == "closed-form"
     method = ("mcmc" if cheap else "laplace") if posterior == "auto" else posterior
-    if noise_sd is not None and not (method == "mcmc" and isinstance(noise_sd, (int, float)) and 0.0 < noise_sd < math.inf):
+    is_sd = isinstance(noise_sd, (int, float)) and not isinstance(noise_sd, bool) and 0.0 < noise_sd < math.inf
+    if noise_sd is not None and not (method == "mcmc" and is_sd):
         raise ValueError(f"noise_sd={noise_sd!r} is not allowed (allowed: a positive finite sd in the data's unit, with MCMC)")
     if method == "mcmc" and not cheap:
         raise ValueError("posterior='mcmc' needs the closed-form forward model (allowed with the simulator: laplace, or auto)")

@@ -18,6 +18,7 @@ import xarray as xr
 from tumblemc.lab.bounds import check_free
 from tumblemc.lab.calibrate import BenchData, calibrate
 from tumblemc.lab.mcmc import tilt_balance_batch
+from tumblemc.model.params import Params
 
 
 def coverage(
@@ -83,9 +84,9 @@ def coverage(
     x0, xh0 = x.copy(), xh.copy()
     rng = np.random.default_rng(seed)
     names = list(truth)
-    scales = check_free(names, prior, "paper") if prior is not None else None
+    scales = None
     if prior is not None:
-        options = dict(options, bounds=prior)
+        scales, options = check_free(names, prior, "paper"), dict(options, bounds=prior)
     values = np.tile(np.array([truth[nm] for nm in names], float), (n_rep, 1))
     rank = np.zeros((n_rep, len(names)))
     hit = np.zeros((n_rep, len(names)), bool)
@@ -117,7 +118,7 @@ def coverage(
             width[i, j] = b - a
             undet[i, j] = nm in post.attrs["undetermined"].split(",")
         draws = {nm: post[nm].values[:, None] for nm in names}
-        fixed = {k: v for k, v in options.items() if k not in ("bounds", "posterior", "starts", "screen", "band_draws", "noise_sd")}
+        fixed = {k: v for k, v in options.items() if k in Params.field_names()}  # the Params overrides among calibrate's options
         clear = y > 3.0 * noise_deg
         if clear.any():
             pred = tilt_balance_batch(x[clear], "paper", fixed, **draws)
