@@ -169,6 +169,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", default="docs/notes/calibration_coverage.md")
     ap.add_argument("--quick", action="store_true", help="case 2 alone, closed-form data, 5 replicates")
     ap.add_argument("--sbc", type=int, default=200, help="replicates with truths drawn from the prior (0: none)")
+    ap.add_argument("--sbc-nc", default="", help="also write the prior-drawn replicates (ranks, truths, coverage) to this netCDF file")
     args = ap.parse_args(argv)
     head = [
         "# Calibration coverage campaign",
@@ -190,6 +191,8 @@ def main(argv: list[str] | None = None) -> None:
     if args.sbc:
         t0 = time.perf_counter()
         sbc = coverage(args.sbc, dict.fromkeys(PRIOR, 1.0), FIELDS, 1.0, seed=451, prior=PRIOR, progress=True)
+        if args.sbc_nc:
+            sbc.to_netcdf(args.sbc_nc)
         fig = Path(args.out).with_name(Path(args.out).stem + "_ranks.png")
         rank_figure(sbc, fig)
         lines += [

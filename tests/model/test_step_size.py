@@ -9,13 +9,21 @@ import numpy as np
 import pytest
 
 import tumblemc
-from tumblemc.model.fields import Rotating, Static
+from tumblemc.model.fields import Rotating, Sequence, Static
 from tumblemc.model.frames import quat_to_matrix
 from tumblemc.model.params import get_preset, magnetisation_dir
 from tumblemc.model.rows import TimeGrid, simulate_rows
 from tumblemc.model.run import run_inputs
 from tumblemc.model.shapes.library import get_shape
-from tumblemc.model.step_size import CEILING_S, STEPS_PER_PERIOD, TURN_PER_STEP, default_step, natural_frequency
+from tumblemc.model.step_size import (
+    CEILING_S,
+    NEAR_FRACTION,
+    STEPS_PER_PERIOD,
+    STEPS_PER_PERIOD_NEAR,
+    TURN_PER_STEP,
+    default_step,
+    natural_frequency,
+)
 from tumblemc.study.config import load_config
 from tumblemc.study.design import batch_row, design, design_values, grid_of, run_kwargs
 from tumblemc.study.stepcfg import study_dt
@@ -30,9 +38,9 @@ def test_the_paper_points_keep_the_papers_step(shape: str, preset: str, freq: fl
 
 
 def test_each_rate_sets_the_step_it_needs() -> None:
-    # the field's period: 1000 steps per turn at 200 Hz
-    ri = run_inputs("cuboid", "paper", field=Rotating(20.0, 200.0), duration_s=0.01)
-    assert ri.dt == pytest.approx(1.0 / (STEPS_PER_PERIOD * 200.0)) and ri.dt_rule.startswith("field period")
+    # the field's period: 1000 steps per turn at 100 Hz
+    ri = run_inputs("cuboid", "paper", field=Rotating(20.0, 100.0), duration_s=0.01)
+    assert ri.dt == pytest.approx(1.0 / (STEPS_PER_PERIOD * 100.0)) and ri.dt_rule.startswith("field period")
     # the natural frequency: aluminum at 100 mT, sqrt(|m||B| / I_min) against an independent eigenvalue
     p = get_preset("aluminum")
     inertia = get_shape("cuboid").inertia(p.mass)
@@ -52,9 +60,31 @@ def test_each_rate_sets_the_step_it_needs() -> None:
     assert default_step(inertia, 0.0, 0.0, [0.0]).dt == CEILING_S
 
 
+def test_a_field_near_the_magnets_natural_frequency_gets_finer_steps() -> None:
+    # the paper cuboid at 20 mT: natural frequency sqrt(|m||B| / I_min) / 2 pi, about 311 Hz
+    p = get_preset("paper")
+    inertia = get_shape("cuboid").inertia(p.mass)
+    f_nat = math.sqrt(p.V_m * p.magnetization * 0.02 / min(np.linalg.eigvalsh(inertia))) / (2 * math.pi)
+    assert 300.0 < f_nat < 320.0
+    below = run_inputs("cuboid", "paper", field=Rotating(20.0, 0.99 * NEAR_FRACTION * f_nat), duration_s=0.01)
+    above = run_inputs("cuboid", "paper", field=Rotating(20.0, 1.01 * NEAR_FRACTION * f_nat), duration_s=0.01)
+    assert below.dt_rule.startswith(f"field period ({STEPS_PER_PERIOD} steps")
+    assert above.dt_rule.startswith(f"field period ({STEPS_PER_PERIOD_NEAR} steps") and "natural frequency 311.1 Hz" in above.dt_rule
+    assert above.dt <= 1.0 / (STEPS_PER_PERIOD_NEAR * 1.01 * NEAR_FRACTION * f_nat) < below.dt / 10
+    # at 200 Hz: 16000 steps per turn, the step at which the ensemble's P(success) settles
+    assert run_inputs("cuboid", "paper", field=Rotating(20.0, 200.0), duration_s=0.01).dt == 5e-5 / 160
+    # a field program: each segment against the natural frequency at its own field
+    fast_strong, slow_weak = Rotating(100.0, 200.0), Rotating(5.0, 80.0)  # 0.29 and 0.51 of their natural frequencies
+    assert run_inputs("cuboid", "paper", field=fast_strong, duration_s=0.01).dt == 5e-6
+    prog = run_inputs("cuboid", "paper", field=Sequence((0.005, fast_strong), (0.005, slow_weak)), duration_s=0.01)
+    assert prog.dt == pytest.approx(1.0 / (STEPS_PER_PERIOD_NEAR * 80.0), rel=0.1) and "at 80 Hz" in prog.dt_rule
+    with pytest.raises(ValueError, match="segment_mT"):
+        default_step(inertia, 1.0, 20.0, [1.0, 2.0], segment_mT=[20.0])
+
+
 def test_the_run_reports_its_step_rule() -> None:
-    ds = tumblemc.simulate(field=Rotating(20.0, 200.0), duration_s=0.002)
-    assert ds.attrs["dt"] == pytest.approx(5e-6) and "1000 steps per turn at 200 Hz" in ds.attrs["dt_rule"]
+    ds = tumblemc.simulate(field=Rotating(20.0, 100.0), duration_s=0.002)
+    assert ds.attrs["dt"] == pytest.approx(1e-5) and "1000 steps per turn at 100 Hz" in ds.attrs["dt_rule"]
 
 
 def test_each_cell_of_a_study_runs_at_its_own_step() -> None:

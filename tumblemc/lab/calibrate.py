@@ -27,15 +27,18 @@ docs/guide/lab.md), about a thousand times cheaper.
 
 **Posterior.** With the closed form (the default where it applies), MCMC
 (:func:`tumblemc.lab.mcmc.sample_posterior`, emcee): the exact likelihood, Gaussian noise of
-unknown sd marginalised (``SSR^(-n/2)``), so the lift-off threshold's cliff is sampled as it
-is. With the simulator, whose runs cost seconds, a Laplace approximation at the optimum as a
-labelled fallback: precision ``J^T J / s^2 + P0`` in ``z`` (``P0`` the bounds' uniform as a
-weak prior), drawn as a multivariate t with ``n - p`` degrees of freedom and truncated to the
-bounds; the Jacobian is taken at two steps (1e-3 and 1e-2) and, per parameter, the flatter one
-is used (``rough`` flags a factor over 2 between them). Every result carries a posterior
-predictive check (the share of the data inside their 95% predictive band), the bounds the
-posterior presses on with the ``--bounds`` flag that widens them, and the presets' values
-the data rule out (outside the 99% interval); :func:`report` words them.
+unknown sd marginalised (``SSR^(-n/2)``), so the lift-off threshold's cliff is sampled as it is;
+the chain's draws are then importance-corrected (:func:`tumblemc.lab.mcmc.importance_correct`:
+the ensemble sampler leaves the far end of a ridge under-sampled, and its intervals held the
+truth less often than the exact posterior's, docs/notes/calibration_coverage.md). With the
+simulator, whose runs cost seconds, a Laplace approximation at the optimum as a labelled
+fallback: precision ``J^T J / s^2 + P0`` in ``z`` (``P0`` the bounds' uniform as a weak prior),
+drawn as a multivariate t with ``n - p`` degrees of freedom and truncated to the bounds; the
+Jacobian is taken at two steps (1e-3 and 1e-2) and, per parameter, the flatter one is used
+(``rough`` flags a factor over 2 between them). Every result carries a posterior predictive
+check (the share of the data inside their 95% predictive band), the bounds the posterior presses
+on with the ``--bounds`` flag that widens them, and the presets' values the data rule out
+(outside the 99% interval); :func:`report` words them.
 
 The result is an xarray Dataset, one variable per free :class:`Params` field along
 ``sample`` (the posterior draws, the file a study samples from with
@@ -364,6 +367,8 @@ def calibrate(  # noqa: C901
             "mcmc_walkers": chain.n_walkers if chain else 0,
             "mcmc_acceptance": chain.acceptance if chain else math.nan,
             "mcmc_moved_walkers": chain.n_moved if chain else 0,
+            "importance_ess": chain.ess if chain else math.nan,
+            "importance_corrected": int(bool(chain and chain.corrected)),
             "n_posterior_evaluations": chain.n_evaluations if chain else 0,
             "predictive_share": float(inside.mean()),
             "liftoff_share": lift,
@@ -399,6 +404,14 @@ def report(ds: xr.Dataset) -> list[str]:
             else f" (warning: the chain is shorter than {mc.TAU_FACTOR} of them: read the draws with care)"
         )
         lines.append(f"  autocorrelation time {tau} steps; acceptance {a['mcmc_acceptance']:.2f}{ok}")
+        ess = a.get("importance_ess", math.nan)
+        if a.get("importance_corrected", 0):
+            lines.append(f"  draws importance-corrected from the chain (effective sample size {ess:.0f})")
+        elif np.isfinite(ess):
+            lines.append(
+                f"  the chain's own draws: the importance correction's effective sample size ({ess:.0f}) is below the "
+                f"{ds.sizes['sample']} draws asked (its tails may be under-sampled)"
+            )
     lines += diagnostic_lines(ds)
     inside = int(round(a["predictive_share"] * ds.sizes["point"]))
     lines.append(

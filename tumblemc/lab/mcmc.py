@@ -33,6 +33,12 @@ MIN_STEPS = 1500  # production steps, at least
 MAX_STEPS = 20000  # production steps, at most (a chain 50 autocorrelation times long stops earlier)
 TAU_FACTOR = 50  # emcee's own rule: trust tau once the chain is 50 tau long
 STRAGGLER_LOGP = 10.0  # a walker whose log posterior sits this far (plus p) below the median after burn-in is moved
+IS_POINTS = 50000  # points per round of the importance correction
+IS_ROUNDS = 3  # rounds: the proposal refitted to the weighted points of the previous round
+IS_DEFENSIVE = 0.1  # the prior's (the uniform box's) share of the proposal
+IS_INFLATE = 4.0  # the proposal's covariance, times the weighted points'
+IS_DF = 4  # the proposal's Student-t degrees of freedom
+IS_MIN_ESS = 1.0  # the correction is kept when its effective sample size is at least this many times the draws asked
 
 
 @functools.cache
@@ -127,10 +133,58 @@ class Chain:
     acceptance: float
     n_moved: int  # stragglers moved after the first burn-in
     n_evaluations: int
+    ess: float = math.nan  # effective sample size of the importance correction (NaN: not run)
+    corrected: bool = False  # the draws are the importance correction's (else the chain's)
+
+
+def importance_correct(
+    log_post: Callable[[np.ndarray], np.ndarray], z: np.ndarray, n_draws: int, rng: np.random.Generator
+) -> tuple[np.ndarray, float, int]:
+    """Draws of the posterior by adaptive importance sampling, started from a chain's points ``z``.
+
+    The proposal is a Student-t (:data:`IS_DF` degrees of freedom, the covariance of the
+    points times :data:`IS_INFLATE`) mixed with the prior, the uniform box
+    (:data:`IS_DEFENSIVE`): the prior's share bounds every weight by the likelihood over
+    its mean, so the weights stay finite wherever the chain did not go. Each of
+    :data:`IS_ROUNDS` rounds draws :data:`IS_POINTS` points and refits the t to the weighted
+    points. Self-normalised weights make it exact as the points grow, whatever the chain
+    missed (an ensemble sampler leaves the far end of a curved ridge pressing on a bound
+    under-sampled: docs/notes/calibration_coverage.md). Returns ``n_draws`` draws
+    resampled by weight, the effective sample size of the last round and the evaluations.
+    """
+    from scipy import stats
+
+    p = z.shape[1]
+    pts, w = z, np.full(len(z), 1.0 / len(z))
+    ess, calls = math.nan, 0
+    for _ in range(IS_ROUNDS):
+        m = w @ pts
+        d = pts - m
+        cov = IS_INFLATE * (d.T * w) @ d + 1e-12 * np.eye(p)
+        t = stats.multivariate_t(m, cov, df=IS_DF, seed=rng)
+        n_t = int(round((1.0 - IS_DEFENSIVE) * IS_POINTS))
+        pts = np.vstack([np.asarray(t.rvs(n_t)).reshape(n_t, p), rng.uniform(0.0, 1.0, (IS_POINTS - n_t, p))])
+        inside = np.all((pts >= 0.0) & (pts <= 1.0), axis=1)
+        log_q = np.logaddexp(math.log(1.0 - IS_DEFENSIVE) + t.logpdf(pts), np.where(inside, math.log(IS_DEFENSIVE), -np.inf))
+        lp = np.full(len(pts), -np.inf)
+        lp[inside] = log_post(pts[inside])
+        calls += int(inside.sum())
+        lw = lp - log_q
+        if not np.isfinite(lw.max()):
+            return z, 0.0, calls
+        w = np.exp(lw - lw.max())
+        w /= w.sum()
+        ess = float(1.0 / np.sum(w**2))
+    return pts[rng.choice(len(pts), n_draws, p=w)], ess, calls
 
 
 def sample_posterior(
-    log_post: Callable[[np.ndarray], np.ndarray], z_opt: np.ndarray, n_draws: int, seed: int, n_walkers: int | None = None
+    log_post: Callable[[np.ndarray], np.ndarray],
+    z_opt: np.ndarray,
+    n_draws: int,
+    seed: int,
+    n_walkers: int | None = None,
+    correct: bool = True,
 ) -> Chain:
     """Draw ``n_draws`` points of a posterior on the unit box with emcee, deterministically for a ``seed``.
 
@@ -140,7 +194,10 @@ def sample_posterior(
     ensemble's median (a local mode or a plateau of the prior) restart beside a random
     other walker, and a second burn-in follows. The production run lasts until it is
     :data:`TAU_FACTOR` autocorrelation times long (at least :data:`MIN_STEPS`, at most
-    :data:`MAX_STEPS`); the draws are taken from it thinned by half the largest tau.
+    :data:`MAX_STEPS`). With ``correct`` (the default) the draws are then those of
+    :func:`importance_correct` started from the chain, when its effective sample size is at
+    least :data:`IS_MIN_ESS` times ``n_draws``; otherwise (and without ``correct``) they are
+    taken from the chain thinned by half the largest tau.
     """
     import emcee
 
@@ -191,7 +248,13 @@ def sample_posterior(
     if len(flat) < n_draws:
         flat = sampler.get_chain(flat=True)
     pick = rng.choice(len(flat), n_draws, replace=len(flat) < n_draws)
-    return Chain(flat[pick], k, steps, tau, float(np.mean(sampler.acceptance_fraction)), int(stuck.sum()), calls[0])
+    draws, ess, corrected = flat[pick], math.nan, False
+    if correct:
+        is_draws, ess, n_is = importance_correct(log_post, sampler.get_chain(flat=True), n_draws, rng)
+        calls[0] += n_is
+        if ess >= IS_MIN_ESS * n_draws:
+            draws, corrected = is_draws, True
+    return Chain(draws, k, steps, tau, float(np.mean(sampler.acceptance_fraction)), int(stuck.sum()), calls[0], ess, corrected)
 
 
 def noise_sd_draws(ssr: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -207,4 +270,4 @@ def bands(pred: np.ndarray, sd: np.ndarray, rng: np.random.Generator, level: flo
     return {"band_lo": lo, "band_hi": hi, "predictive_lo": plo, "predictive_hi": phi}
 
 
-__all__ = ["Chain", "Scales", "bands", "cuboid_lwh", "noise_sd_draws", "sample_posterior", "tilt_balance_batch"]
+__all__ = ["Chain", "Scales", "bands", "cuboid_lwh", "importance_correct", "noise_sd_draws", "sample_posterior", "tilt_balance_batch"]

@@ -207,9 +207,14 @@ def revolutions(program: np.ndarray, duration_s: float) -> float:
     return float(np.sum(program[:, SEG_FREQ] * _overlaps(program, duration_s)))
 
 
+def segment_mT(program: np.ndarray) -> np.ndarray:
+    """Each segment's largest field magnitude (its amplitude plus its bias), mT."""
+    return (program[:, SEG_AMP] + np.linalg.norm(program[:, SEG_BIAS : SEG_BIAS + 3], axis=1)) * 1e3
+
+
 def peak_mT(program: np.ndarray) -> float:
     """The largest field magnitude of any segment, mT."""
-    return float(np.max(program[:, SEG_AMP] + np.linalg.norm(program[:, SEG_BIAS : SEG_BIAS + 3], axis=1)) * 1e3)
+    return float(np.max(segment_mT(program)))
 
 
 def scale_program(program: np.ndarray, time_unit: float, torque_per_tesla: float) -> np.ndarray:
@@ -248,4 +253,5 @@ __all__ = [
     "peak_mT",
     "revolutions",
     "scale_program",
+    "segment_mT",
 ]

@@ -28,6 +28,7 @@ from tumblemc.model.fields import (
     peak_mT,
     revolutions,
     scale_program,
+    segment_mT,
 )
 from tumblemc.model.frames import plane_frame, rot_to_quat
 from tumblemc.model.outcome import run_status
@@ -186,8 +187,8 @@ def run_inputs(  # noqa: C901
     omega0 = check_motion("omega0", omega0)
     dt_rule = "given"
     if dt is None:  # the default: what the run must resolve (model/step_size.py)
-        freqs = [freq_hz] if program is None else np.abs(program[:, SEG_FREQ]).tolist()
-        choice = default_step(shp.inertia(params.mass), params.V_m * params.magnetization, field_mT, freqs, omega0)
+        freqs, seg = ([freq_hz], None) if program is None else (np.abs(program[:, SEG_FREQ]).tolist(), segment_mT(program).tolist())
+        choice = default_step(shp.inertia(params.mass), params.V_m * params.magnetization, field_mT, freqs, omega0, seg)
         dt, dt_rule = check_resolved(choice)
     else:
         dt = RANGES["dt"].check("dt", dt)

@@ -20,16 +20,19 @@ def cell_dt(cfg: Any, shape: str, substrate: str, field_mT: float | None = None,
     of the cell: its shape, the substrate preset's nominal magnet and mass, its nominal
     field (plus the field's bias) and its frequency. ``field_mT`` or ``freq_hz`` None: the
     study's most demanding value of that axis (a threshold study searching it, or a cell
-    without it), so that one robot's runs along a searched axis share one step. The
+    without it; for the field, the finer step of its strongest and its weakest value), so
+    that one robot's runs along a searched axis share one step. The
     sampled parameters (magnetisation, mass) do not enter: every run of a cell shares the
     cell's step, and the check re-simulates it at ``dt / dt_factor``.
     """
     if cfg.dt is not None:
         return float(cfg.dt)
     bias = float(np.linalg.norm(cfg.field.bias_mT))
-    mT = max(cfg.field_mT) if field_mT is None else float(field_mT)
+    # a searched field: its strongest value (the magnet turns fastest) and its weakest (a fast
+    # field is nearest the magnet's natural frequency) are the candidates
+    fields = {max(cfg.field_mT), min(cfg.field_mT)} if field_mT is None else {float(field_mT)}
     hz = tuple(cfg.freq_hz) if freq_hz is None else (float(freq_hz),)
-    return _default_step(shape, substrate, mT + bias, hz)
+    return min(_default_step(shape, substrate, mT + bias, hz) for mT in fields)
 
 
 @functools.lru_cache(maxsize=4096)
