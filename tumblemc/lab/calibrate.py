@@ -30,7 +30,7 @@ docs/guide/lab.md), about a thousand times cheaper.
 unknown sd marginalised (``SSR^(-n/2)``), so the lift-off threshold's cliff is sampled as it is;
 the chain's draws are then importance-corrected (:func:`tumblemc.lab.mcmc.importance_correct`:
 the ensemble sampler leaves the far end of a ridge under-sampled, and its intervals held the
-truth less often than the exact posterior's, docs/notes/calibration_coverage.md). With the
+truth less often than the exact posterior's, docs/notes/calibration_sampler.md). With the
 simulator, whose runs cost seconds, a Laplace approximation at the optimum as a labelled
 fallback: precision ``J^T J / s^2 + P0`` in ``z`` (``P0`` the bounds' uniform as a weak prior),
 drawn as a multivariate t with ``n - p`` degrees of freedom and truncated to the bounds; the

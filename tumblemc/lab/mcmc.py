@@ -33,8 +33,8 @@ MIN_STEPS = 1500  # production steps, at least
 MAX_STEPS = 20000  # production steps, at most (a chain 50 autocorrelation times long stops earlier)
 TAU_FACTOR = 50  # emcee's own rule: trust tau once the chain is 50 tau long
 STRAGGLER_LOGP = 10.0  # a walker whose log posterior sits this far (plus p) below the median after burn-in is moved
-IS_POINTS = 50000  # points per round of the importance correction
-IS_ROUNDS = 3  # rounds: the proposal refitted to the weighted points of the previous round
+IS_POINTS = 40000  # points per round of the importance correction
+IS_ROUNDS = 2  # rounds: the proposal refitted to the weighted points of the previous round
 IS_DEFENSIVE = 0.1  # the prior's (the uniform box's) share of the proposal
 IS_INFLATE = 4.0  # the proposal's covariance, times the weighted points'
 IS_DF = 4  # the proposal's Student-t degrees of freedom
@@ -149,7 +149,7 @@ def importance_correct(
     :data:`IS_ROUNDS` rounds draws :data:`IS_POINTS` points and refits the t to the weighted
     points. Self-normalised weights make it exact as the points grow, whatever the chain
     missed (an ensemble sampler leaves the far end of a curved ridge pressing on a bound
-    under-sampled: docs/notes/calibration_coverage.md). Returns ``n_draws`` draws
+    under-sampled: docs/notes/calibration_sampler.md). Returns ``n_draws`` draws
     resampled by weight, the effective sample size of the last round and the evaluations.
     """
     from scipy import stats
