@@ -17,6 +17,7 @@ Its table goes to ``--out`` (default docs/notes/calibration_sampler.md) after ``
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -96,7 +97,7 @@ def main(argv: list[str] | None = None) -> None:
     n = len(ref)
     rk = ref[:, : len(names)]
     cov_ref = (rk > 0.025) & (rk < 0.975)
-    cmd = " ".join(["python experiments/calibration_sampler.py", *(argv if argv is not None else sys.argv[1:])])
+    cmd = shlex.join(["python", "experiments/calibration_sampler.py", *(argv if argv is not None else sys.argv[1:])])
     lines = [
         "# The calibration sampler against an exact posterior",
         "",
@@ -121,7 +122,7 @@ def main(argv: list[str] | None = None) -> None:
         lines.append(f"| exact (importance sampling from the prior) | first {k} | " + " | ".join(f"{c:.3f}" for c in cov_k) + " | 0 |")
         for label, path in zip(labels, args.nc, strict=True):
             ds = xr.open_dataset(path)
-            if min(n, ds.sizes["replicate"]) != k:
+            if ds.sizes["replicate"] < k:
                 continue
             m = ds["rank"].values[:k]
             covered = ds["covered"].values[:k]

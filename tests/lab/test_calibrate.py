@@ -260,7 +260,7 @@ def test_coverage_draws_each_truth_from_the_prior() -> None:
 def test_the_posterior_is_calibrated_over_its_prior() -> None:
     # simulation-based calibration: truths drawn from the prior the posterior assumes, so an
     # exact posterior's 95% intervals hold them 95% of the time, averaged over the prior
-    # (docs/notes/calibration_coverage.md measures 0.89-0.94 over 400), and ranks them
+    # (docs/notes/calibration_coverage.md measures 0.92-0.94 over 400), and ranks them
     # uniformly: at least 24 of 30 (P(fewer) 0.06% at a true 95%) and KS p > 0.001; a
     # posterior too narrow (noise underrated, a stuck sampler) or shifted fails both
     from scipy import stats
