@@ -176,7 +176,7 @@ def main(argv: list[str] | None = None) -> None:
         "",
         f"Written by `python tools/calibration_coverage.py {'--quick' if args.quick else f'--reps {args.reps} --sbc {args.sbc}'}` "
         f"({platform.node()}, {time.strftime('%Y-%m-%d')}). Method: [calibration.md](../guide/calibration.md). "
-        "Each replicate is calibrated with the closed-form model and the default posterior (MCMC, emcee); "
+        "Each replicate is calibrated with the closed-form model and the default posterior (MCMC, emcee, importance-corrected); "
         "held-out points are the truth at the 14 midpoints between the data fields plus new noise.",
         "",
     ]
