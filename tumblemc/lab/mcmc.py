@@ -170,8 +170,8 @@ def importance_correct(
         lp[inside] = log_post(pts[inside])
         calls += int(inside.sum())
         lw = lp - log_q
-        if not np.isfinite(lw.max()):
-            return z, 0.0, calls
+        if not np.isfinite(lw.max()):  # no point of positive posterior: the caller keeps the chain's draws
+            return z[rng.choice(len(z), n_draws)], 0.0, calls
         w = np.exp(lw - lw.max())
         w /= w.sum()
         ess = float(1.0 / np.sum(w**2))
