@@ -19,7 +19,7 @@ import pytest
 from tests.kernels.test_kernels import make_problem
 from tests.naive import naive_residual
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.newton import make_workspace, solve
+from tumblemc.kernels.newton import make_workspace, rounding_floor, solve
 from tumblemc.kernels.residual import Problem
 from tumblemc.model.solver_options import SolverOptions
 
@@ -88,3 +88,49 @@ def test_free_flight_step_reaches_the_twins_root(seed: int) -> None:
     assert st == L.ST_OK
     assert np.abs(F(z_kernel)).max() <= 10 * TOL, "the kernel's root is not a root of the twin's residual"
     assert np.abs(z_kernel - z_twin).max() <= ROOT_REL * (1.0 + np.abs(z_twin).max())
+
+
+def _fast_spin_flight(h: float, seed: int = 3) -> tuple[np.ndarray, Problem]:
+    """A free-flight step of the paper cuboid (its scaled inertia) spinning at 20 scaled units (6000 rad/s)."""
+    z, sc, prm, ctype, cdata, pstart = make_problem("cuboid", seed, False, 0.3, h, 0.0)
+    prm[L.P_MASS] = 1.0
+    prm[L.P_IB : L.P_IB + 9] = np.diag([65.0, 17.0, 80.0]).ravel() / 12.0  # 5.42, 1.42, 6.67
+    sc[L.S_W : L.S_W + 3] *= 20.0 / np.abs(sc[L.S_W : L.S_W + 3]).sum()
+    z[3:6] = sc[L.S_W : L.S_W + 3]
+    return z[:6].copy(), Problem(sc, prm, ctype, cdata, pstart[:1])
+
+
+def test_the_rounding_floor_is_below_tol_at_the_papers_step() -> None:
+    """At 5e-5 s (0.0157 scaled) a 6000 rad/s spin leaves the test at tol alone."""
+    _, prob = _fast_spin_flight(0.0157)
+    assert rounding_floor(prob) < 0.05 * TOL
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_fast_spin_at_a_tiny_step_stops_on_its_rounding_floor(seed: int) -> None:
+    """The solve stops within the rounding floor, which covers the rows' resolution.
+
+    At 1.8e-8 s (5.8e-6 scaled) one ulp of w+ moves the rows by about tol: the solve stops
+    within the floor, without the fallbacks that tol alone cost (the old rule: 480,000 of
+    them in 16,000 such steps, docs/notes/step_size.md), and the floor covers that
+    resolution without being far above it.
+    """
+    z0, prob = _fast_spin_flight(5.8e-6, seed)
+    z = z0.copy()
+    out = np.zeros(3, np.int64)
+    st, res = solve(z, prob, make_workspace(6), OPTS, out, False, 0.0, False)
+    floor = rounding_floor(prob)
+    assert floor > TOL
+    assert st == L.ST_OK and out[1] == 0 and out[0] <= 4
+    assert res <= floor
+
+    def F(zz: np.ndarray) -> np.ndarray:
+        return np.asarray(naive_residual(zz, prob.sc, prob.prm, prob.ctype, prob.cdata, prob.pstart), dtype=float)
+
+    base = F(z)
+    resolution = 0.0  # how far the rows move for one ulp of a component of w+
+    for j in range(3, 6):
+        zu = z.copy()
+        zu[j] = np.nextafter(z[j], np.inf)
+        resolution = max(resolution, float(np.abs(F(zu) - base).max()))
+    assert 0.3 * TOL < resolution <= floor <= 100.0 * resolution

@@ -17,7 +17,24 @@ from collections import namedtuple
 import numpy as np
 
 from ._jit import jit
-from .layout import O_ARMIJO, O_CHORD, O_MAXIT, O_MINSTEP, O_PIVROW, O_STALL, O_TOL, S_H, ST_LINESEARCH, ST_MAXIT, ST_NAN, ST_OK
+from .layout import (
+    O_ARMIJO,
+    O_CHORD,
+    O_MAXIT,
+    O_MINSTEP,
+    O_PIVROW,
+    O_STALL,
+    O_TOL,
+    P_IB,
+    P_MASS,
+    S_H,
+    S_V,
+    S_W,
+    ST_LINESEARCH,
+    ST_MAXIT,
+    ST_NAN,
+    ST_OK,
+)
 from .lu import copy_amax, lu_factor, lu_solve
 from .residual import N_RS, residual
 
@@ -26,6 +43,10 @@ CHORD_RATE = 0.5
 #: a chord solve that took this many iterations marks its factors stale: the next step
 #: factors afresh (measured on 7 runs: 3 against never and 2, docs/chord.md)
 CHORD_STALE = 3
+#: the rounding floor of the Newton-Euler rows, in units in the last place of the momenta
+#: they balance, divided by the step (:func:`rounding_floor`)
+ROUND_ULPS = 8.0
+EPS = 2.220446049250313e-16  # float64's unit in the last place of 1
 
 Workspace = namedtuple(
     "Workspace",
@@ -74,6 +95,33 @@ def make_workspace(n: int) -> Workspace:
         y=np.zeros(n),
         lu_h=np.zeros(1),
     )
+
+
+@jit
+def rounding_floor(prob):  # type: ignore[no-untyped-def]
+    """The smallest residual max-norm the step's Newton-Euler rows can resolve, scaled units.
+
+    The rows balance momenta divided by the step, ``m (v+ - v) / h`` and ``(I+ w+ - I w) /
+    h``: one unit in the last place of ``v+`` or ``w+`` moves them by ``eps |p| / h``, and
+    rounding in ``I+`` (built from the end pose) adds as much. The floor is
+    ``ROUND_ULPS eps max(m |v|_1, ||Ib||_F |w|_1) / h`` at the start of the step (a bound
+    on the momenta's components). At the paper's 5e-5 s it is below the default ``tol``
+    (1e-9) up to spins of about 1e5 rad/s; at 1.8e-8 s it reaches 1e-9 at a 2000 rad/s
+    spin, where Newton otherwise iterates on rounding noise until its strategies run out
+    (docs/notes/step_size.md, "A residual floor at small steps").
+    """
+    sc = prob.sc
+    prm = prob.prm
+    pv = 0.0
+    pw = 0.0
+    for i in range(3):
+        pv += abs(sc[S_V + i])
+        pw += abs(sc[S_W + i])
+    ib = 0.0
+    for i in range(9):
+        ib += prm[P_IB + i] * prm[P_IB + i]
+    p = max(prm[P_MASS] * pv, math.sqrt(ib) * pw)
+    return ROUND_ULPS * EPS * p / sc[S_H]
 
 
 @jit
@@ -200,7 +248,8 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         The step's system (:class:`tumblemc.kernels.residual.Problem`).
     ws : Workspace
     opts : float64[N_OPT]
-        ``O_TOL`` (max-norm of Phi, scaled units), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``,
+        ``O_TOL`` (max-norm of Phi, scaled units; a plain iterate within
+        :func:`rounding_floor` also passes once it stalls), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``,
         ``O_PIVROW`` (``lu_factor``'s row test) and ``O_STALL``: with ``smooth0 > 0``, stop
         (``ST_MAXIT``) after that many iterations in which neither ``||Phi||_inf`` halved nor
         the smoothing parameter fell (0: never).
@@ -254,6 +303,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
     zt = ws.zt
     Ft = ws.Ft
     tol = opts[O_TOL]
+    floor = rounding_floor(prob)
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
     fallbacks = 0
@@ -304,6 +354,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
     stall = int(opts[O_STALL]) if smooth0 > 0.0 else 0  # the smoothing continuation's up-to-300 iterations only
     best = math.inf  # the max-norm when it last halved (or the smoothing parameter last fell) ...
     last = 0  # ... and the iteration count then
+    fprev = math.inf  # the max-norm before the last plain iteration
     while True:
         fnorm = 0.0
         for i in range(n):
@@ -322,6 +373,10 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         if fnorm <= tol and mu_s == 0.0:
             status = ST_OK
             break
+        if mu_s == 0.0 and fnorm <= floor and not fnorm <= CHORD_RATE * fprev:
+            status = ST_OK  # stalled on rounding: the last iteration did not halve it
+            break
+        fprev = fnorm if mu_s == 0.0 else math.inf
         if it >= maxit:
             status = ST_MAXIT
             break
@@ -363,6 +418,9 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
                 accepted, th_new = _line_search(z, slope, theta, prob, ws, trial, opts, (project, mu_s))
+        if not accepted and mu_s == 0.0 and fnorm <= floor:
+            status = ST_OK  # no descent left within the rounding floor
+            break
         # 2. Levenberg-Marquardt
         if not accepted:
             fallbacks += 1

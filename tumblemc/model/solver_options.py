@@ -24,7 +24,9 @@ DEFAULT_ROTATION = "momentum"
 class SolverOptions:
     """Newton and sub-stepping options (tolerances in scaled units, :mod:`tumblemc.units`).
 
-    tol : max-norm of the residual at convergence.
+    tol : max-norm of the residual at convergence. Where the Newton-Euler rows cannot
+        resolve it (small steps, fast spins: ``tumblemc.kernels.newton.rounding_floor``), a
+        plain Newton iterate within their rounding floor passes once it stalls.
     max_iter : Newton iterations per solve.
     max_substep_depth : a failed step is retried as halves down to ``dt / 2**depth``.
     armijo : sufficient-decrease constant of the line search.
