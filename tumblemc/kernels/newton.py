@@ -105,10 +105,13 @@ def rounding_floor(prob):  # type: ignore[no-untyped-def]
     h``: one unit in the last place of ``v+`` or ``w+`` moves them by ``eps |p| / h``, and
     rounding in ``I+`` (built from the end pose) adds as much. The floor is
     ``ROUND_ULPS eps max(m |v|_1, ||Ib||_F |w|_1) / h`` at the start of the step (a bound
-    on the momenta's components). At the paper's 5e-5 s it is below the default ``tol``
-    (1e-9) up to spins of about 1e5 rad/s; at 1.8e-8 s it reaches 1e-9 at a 2000 rad/s
-    spin, where Newton otherwise iterates on rounding noise until its strategies run out
-    (docs/notes/step_size.md, "A residual floor at small steps").
+    on the momenta's components). For the paper cuboid at the paper's 5e-5 s it stays
+    below the default ``tol`` (1e-9) up to spins of 3e5 rad/s; at 1.8e-8 s it passes 1e-9
+    at 120 rad/s, and from about 2000 rad/s the rows' rounding itself exceeds 1e-9: Newton
+    then iterated on noise until every strategy ran out (docs/notes/step_size.md, "A
+    residual floor at small steps"). :func:`solve` accepts a plain iterate within this
+    floor once an iteration fails to halve its residual or no descent is left; above the
+    floor its test is ``tol``'s alone.
     """
     sc = prob.sc
     prm = prob.prm
