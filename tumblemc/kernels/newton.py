@@ -46,7 +46,7 @@ CHORD_STALE = 3
 #: the rounding floor of the Newton-Euler rows, in units in the last place of the momenta
 #: they balance, divided by the step (:func:`rounding_floor`)
 ROUND_ULPS = 8.0
-EPS = 2.220446049250313e-16  # float64's unit in the last place of 1
+EPS = float(np.finfo(np.float64).eps)  # float64's unit in the last place of 1
 
 Workspace = namedtuple(
     "Workspace",
