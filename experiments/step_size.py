@@ -231,8 +231,12 @@ def swarm(args: argparse.Namespace) -> None:
         tw = _twin_overrides(nom, magnetization, offset0, args.twins, seed=list(CELLS).index(cell))
         runs = [(o, h / k) for k in divs for o in [nom, *tw]]
         t0 = time.perf_counter()
+        res = []
         with ProcessPoolExecutor(args.workers) as ex:
-            res = list(ex.map(one, [cell] * len(runs), [r[0] for r in runs], [r[1] for r in runs]))
+            for j, x in enumerate(ex.map(one, [cell] * len(runs), [r[0] for r in runs], [r[1] for r in runs])):
+                res.append(x)  # each run on stderr as it arrives (the finest rungs take minutes each)
+                msg = f"    {cell} dt {runs[j][1]:.3g} s run {j % (args.twins + 1)}: ratio {x[0]:.3f}, status {x[1]}"
+                print(msg, file=sys.stderr, flush=True)
         m = args.twins + 1
         ratio = np.array([x[0] for x in res]).reshape(len(divs), m)
         status = np.array([x[1] for x in res]).reshape(len(divs), m)

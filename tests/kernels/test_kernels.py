@@ -779,7 +779,7 @@ def test_workspace_fields_by_name() -> None:
         "F": ((n,), f), "J": ((n, n), f), "A": ((n, n), f), "d": ((n,), f), "zt": ((n,), f), "Ft": ((n,), f),
         "g": ((n,), f), "fbb": ((n,), f), "isfb": ((n,), i), "piv": ((n,), i), "rs": ((N_RS,), f),
         "Ft_isfb": ((n,), i), "unz": ((n, n), i), "ucnt": ((n,), i), "lnz": ((n, n), i), "lcnt": ((n,), i), "y": ((n,), f),
-        "lu_h": ((1,), f),
+        "lu_h": ((1,), f), "rsc": ((n,), f),
     }  # fmt: skip
     assert set(ws._fields) == set(want)
     for name, (shape, dtype) in want.items():

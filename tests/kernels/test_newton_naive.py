@@ -19,8 +19,9 @@ import pytest
 from tests.kernels.test_kernels import make_problem
 from tests.naive import naive_residual
 from tumblemc.kernels import layout as L
-from tumblemc.kernels.newton import make_workspace, rounding_floor, solve
+from tumblemc.kernels.newton import make_workspace, solve
 from tumblemc.kernels.residual import Problem
+from tumblemc.kernels.rounding import momentum_floor
 from tumblemc.model.solver_options import SolverOptions
 
 OPTS = SolverOptions().as_array()
@@ -103,7 +104,7 @@ def _fast_spin_flight(h: float, seed: int = 3) -> tuple[np.ndarray, Problem]:
 def test_the_rounding_floor_is_below_tol_at_the_papers_step() -> None:
     """At 5e-5 s (0.0157 scaled) a 6000 rad/s spin leaves the test at tol alone."""
     _, prob = _fast_spin_flight(0.0157)
-    assert rounding_floor(prob) < 0.05 * TOL
+    assert momentum_floor(prob) < 0.05 * TOL
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -119,7 +120,7 @@ def test_a_fast_spin_at_a_tiny_step_stops_on_its_rounding_floor(seed: int) -> No
     z = z0.copy()
     out = np.zeros(3, np.int64)
     st, res = solve(z, prob, make_workspace(6), OPTS, out, False, 0.0, False)
-    floor = rounding_floor(prob)
+    floor = momentum_floor(prob)
     assert floor > TOL
     assert st == L.ST_OK and out[1] == 0 and out[0] <= 4
     assert res <= floor

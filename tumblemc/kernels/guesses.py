@@ -26,7 +26,10 @@ The guesses (``G_*``; :func:`build_guess` writes them into ``z``):
 ``G_FACE_REST``,       ``G_FACE``, ``G_VERTEX``, ``G_FACE_IMPACT`` with the velocities started
 ``G_VERTEX_REST``,     at zero instead of the pre-impact ones (a violent impact after flight:
 ``G_FACE_IMPACT_REST`` the smoothed Newton from the incoming velocity can stall where it
-                       converges from rest)
+                       converges from rest); ``G_VERTEX_REST`` also plain, as the rescue pass's
+                       own last attempt (a corner landing that stops a turn about the
+                       normal, where the smoothing continuation from it stalls and plain
+                       Newton converges)
 ``G_SNAP_EDGE``        the angular velocity that lays the nearly level lowest edge exactly
                        level, the ECP in its middle, impact forces: an edge whose second end
                        lands while the first rests on the plane, where the ECP must move
@@ -123,12 +126,17 @@ STRATEGIES = (
     (G_POINT_IMPACT, False, 1e-2),
     (G_LEVEL_EDGE, False, 0.0),
     (G_TWIST_IMPACT, False, 0.0),
+    # the rescue pass's own attempts (a failed step solved once more: ``substep.climb_ladder``)
+    (G_VERTEX_REST, False, 0.0),
 )
 # the table's columns, as the compiled ladder indexes them
 STRATEGY_GUESS = tuple(row[0] for row in STRATEGIES)
 STRATEGY_PROJECT = tuple(row[1] for row in STRATEGIES)
 STRATEGY_SMOOTH = tuple(row[2] for row in STRATEGIES)
 N_ATTEMPTS = len(STRATEGIES)
+#: the last rows of :data:`STRATEGIES` that only the rescue pass of a failed step tries, so
+#: that every step the ladder solves, or keeps loose, stays as it was
+N_RESCUE_ONLY = 1
 #: guesses whose Newton may need the full iteration limit (the snaps and the impacts start
 #: far from the warm start), indexed by guess
 GUESS_FULL_MAXIT = (False, False, False, False, True, False, False, False, True, True, True, True)

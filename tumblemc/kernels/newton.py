@@ -25,11 +25,7 @@ from .layout import (
     O_PIVROW,
     O_STALL,
     O_TOL,
-    P_IB,
-    P_MASS,
     S_H,
-    S_V,
-    S_W,
     ST_LINESEARCH,
     ST_MAXIT,
     ST_NAN,
@@ -37,16 +33,13 @@ from .layout import (
 )
 from .lu import copy_amax, lu_factor, lu_solve
 from .residual import N_RS, residual
+from .rounding import momentum_floor, rounding_scales, within_rounding
 
 #: a chord iteration is kept while it divides the residual's max-norm by at least 2
 CHORD_RATE = 0.5
 #: a chord solve that took this many iterations marks its factors stale: the next step
 #: factors afresh (measured on 7 runs: 3 against never and 2, docs/chord.md)
 CHORD_STALE = 3
-#: the rounding floor of the Newton-Euler rows, in units in the last place of the momenta
-#: they balance, divided by the step (:func:`rounding_floor`)
-ROUND_ULPS = 8.0
-EPS = float(np.finfo(np.float64).eps)  # float64's unit in the last place of 1
 
 Workspace = namedtuple(
     "Workspace",
@@ -69,6 +62,7 @@ Workspace = namedtuple(
         "lcnt",
         "y",
         "lu_h",
+        "rsc",
     ],
 )
 
@@ -94,37 +88,15 @@ def make_workspace(n: int) -> Workspace:
         lcnt=np.zeros(n, np.int64),
         y=np.zeros(n),
         lu_h=np.zeros(1),
+        rsc=np.zeros(n),  # the rows' rounding scales (rounding.rounding_scales)
     )
 
 
 @jit
-def rounding_floor(prob):  # type: ignore[no-untyped-def]
-    """The smallest residual max-norm the step's Newton-Euler rows can resolve, scaled units.
-
-    The rows balance momenta divided by the step, ``m (v+ - v) / h`` and ``(I+ w+ - I w) /
-    h``: one unit in the last place of ``v+`` or ``w+`` moves them by ``eps |p| / h``, and
-    rounding in ``I+`` (built from the end pose) adds as much. The floor is
-    ``ROUND_ULPS eps max(m |v|_1, ||Ib||_F |w|_1) / h`` at the start of the step (a bound
-    on the momenta's components). For the paper cuboid at the paper's 5e-5 s it stays
-    below the default ``tol`` (1e-9) up to spins of 3e5 rad/s; at 1.8e-8 s it passes 1e-9
-    at 120 rad/s, and from about 2000 rad/s the rows' rounding itself exceeds 1e-9: Newton
-    then iterated on noise until every strategy ran out (docs/notes/step_size.md, "A
-    residual floor at small steps"). :func:`solve` accepts a plain iterate within this
-    floor once an iteration fails to halve its residual or no descent is left; above the
-    floor its test is ``tol``'s alone.
-    """
-    sc = prob.sc
-    prm = prob.prm
-    pv = 0.0
-    pw = 0.0
-    for i in range(3):
-        pv += abs(sc[S_V + i])
-        pw += abs(sc[S_W + i])
-    ib = 0.0
-    for i in range(9):
-        ib += prm[P_IB + i] * prm[P_IB + i]
-    p = max(prm[P_MASS] * pv, math.sqrt(ib) * pw)
-    return ROUND_ULPS * EPS * p / sc[S_H]
+def _rounded(z, F, prob, ws):  # type: ignore[no-untyped-def]
+    """Whether every row of ``F = Phi(z)`` lies within its rounding (:mod:`.rounding`)."""
+    rounding_scales(z, prob, ws.rsc)
+    return within_rounding(F, ws.rsc)
 
 
 @jit
@@ -251,8 +223,10 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
         The step's system (:class:`tumblemc.kernels.residual.Problem`).
     ws : Workspace
     opts : float64[N_OPT]
-        ``O_TOL`` (max-norm of Phi, scaled units; a plain iterate within
-        :func:`rounding_floor` also passes once it stalls), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``,
+        ``O_TOL`` (max-norm of Phi, scaled units; a plain iterate also passes within the
+        momenta's rounding, :func:`~.rounding.momentum_floor`, once an iteration fails to
+        halve it, and with every row within its rounding, :func:`~.rounding.within_rounding`,
+        once no descent is left), ``O_MAXIT``, ``O_ARMIJO``, ``O_MINSTEP``,
         ``O_PIVROW`` (``lu_factor``'s row test) and ``O_STALL``: with ``smooth0 > 0``, stop
         (``ST_MAXIT``) after that many iterations in which neither ``||Phi||_inf`` halved nor
         the smoothing parameter fell (0: never).
@@ -306,7 +280,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
     zt = ws.zt
     Ft = ws.Ft
     tol = opts[O_TOL]
-    floor = rounding_floor(prob)
+    floor = momentum_floor(prob)
     maxit = int(opts[O_MAXIT])
     mu_s = smooth0
     fallbacks = 0
@@ -377,7 +351,7 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
             status = ST_OK
             break
         if mu_s == 0.0 and fnorm <= floor and not fnorm <= CHORD_RATE * fprev:
-            status = ST_OK  # stalled on rounding: the last iteration did not halve it
+            status = ST_OK  # stalled on the momenta's rounding: the last iteration did not halve it
             break
         fprev = fnorm if mu_s == 0.0 else math.inf
         if it >= maxit:
@@ -421,8 +395,8 @@ def solve(z, prob, ws, opts, out, project, smooth0, chord=False):  # type: ignor
                 dn += d[i] * d[i]
             if slope == slope and slope < -1e-12 * gnorm * math.sqrt(dn):
                 accepted, th_new = _line_search(z, slope, theta, prob, ws, trial, opts, (project, mu_s))
-        if not accepted and mu_s == 0.0 and fnorm <= floor:
-            status = ST_OK  # no descent left within the rounding floor
+        if not accepted and mu_s == 0.0 and (fnorm <= floor or _rounded(z, F, prob, ws)):
+            status = ST_OK  # no descent left within the rows' rounding
             break
         # 2. Levenberg-Marquardt
         if not accepted:

@@ -16,6 +16,7 @@ from .guesses import (
     GUESS_FULL_MAXIT,
     LOW_TOL,
     N_ATTEMPTS,
+    N_RESCUE_ONLY,
     STRATEGY_GUESS,
     STRATEGY_PROJECT,
     STRATEGY_SMOOTH,
@@ -177,6 +178,7 @@ def predict_flight(state, hc, model, opts, buf, scr, sv):  # type: ignore[no-unt
 def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, clear, rescued, depth):  # type: ignore[no-untyped-def]  # noqa: C901
     """The strategy ladder (:data:`~.guesses.STRATEGIES`) from the warm start ``buf.zsave``.
 
+    Its last ``N_RESCUE_ONLY`` attempts only in a failed step's rescue pass (``rescued``).
     ``full``: a full-length step (the extrapolated warm start applies). Returns ``(st, res,
     res_best, flight, flight_failed)``: the status and residual of the attempt that ended
     the ladder, the smallest plain residual over the attempts (that attempt in
@@ -199,7 +201,8 @@ def climb_ladder(state, hc, full, model, opts_set, buf, scr, lp, touching, sv, c
     res_best = math.inf
     flight = False
     flight_failed = False
-    for attempt in range(N_ATTEMPTS):
+    n_attempts = N_ATTEMPTS if rescued else N_ATTEMPTS - N_RESCUE_ONLY
+    for attempt in range(n_attempts):
         if attempt == FLIGHT_BEFORE and not clear and norm3(state[10:13]) * hc <= EARLY_FLIGHT_TURN:
             # lift-off that the explicit pre-check hid: before the costly smoothing
             # strategies, the free-flight solution, if it clears the plane and turns the body

@@ -24,9 +24,11 @@ DEFAULT_ROTATION = "momentum"
 class SolverOptions:
     """Newton and sub-stepping options (tolerances in scaled units, :mod:`tumblemc.units`).
 
-    tol : max-norm of the residual at convergence. Where the Newton-Euler rows cannot
-        resolve it (small steps, fast spins: ``tumblemc.kernels.newton.rounding_floor``), a
-        plain Newton iterate within their rounding floor passes once it stalls.
+    tol : max-norm of the residual at convergence. Where rows cannot resolve it in float64
+        (small steps and fast spins in the Newton-Euler rows, a landing's large forces in the
+        friction cone's row: ``tumblemc.kernels.rounding``), a plain Newton iterate whose
+        every row lies within a few ulps of its terms passes once no descent is left. Such a
+        step records its residual (above ``tol``) and is not counted as loose.
     max_iter : Newton iterations per solve.
     max_substep_depth : a failed step is retried as halves down to ``dt / 2**depth``.
     armijo : sufficient-decrease constant of the line search.
