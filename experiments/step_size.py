@@ -120,8 +120,15 @@ def ensemble(args: argparse.Namespace) -> None:
         ]
         for label, dt in steps:
             t0 = time.perf_counter()
+            res = []
             with ProcessPoolExecutor(args.workers) as ex:
-                res = list(ex.map(one, [cell] * len(rs), rs, [dt] * len(rs)))
+                for j, x in enumerate(ex.map(one, [cell] * len(rs), rs, [dt] * len(rs))):
+                    res.append(x)  # each robot on stderr as it arrives, with the time since the stage began
+                    print(
+                        f"    {cell} {label} robot {j}: ratio {x[0]:.3f}, status {x[1]}, {time.perf_counter() - t0:.0f} s",
+                        file=sys.stderr,
+                        flush=True,
+                    )
             ratio = np.array([r[0] for r in res])
             ok = np.array([r[1] == 0 for r in res])
             k = int(np.sum(ratio[ok] >= 0.5))
