@@ -73,6 +73,12 @@ def before_step(sp: Any, k: int) -> dict[str, Any]:
     }
 
 
+def write_before_step(out: Path, run: dict[str, Any], steps: int) -> None:
+    """Write :func:`before_step` of ``run`` (keyword arguments of ``run_inputs``) after ``steps`` steps to ``out``."""
+    np.savez(out, allow_pickle=False, **before_step(prepare(run_inputs(**run)), steps))
+    print(f"wrote {out}")
+
+
 def main() -> None:
     spec = prepare(run_inputs(**RUN_122, solver=tumblemc.SolverOptions(landing_work=0.0)))  # type: ignore[arg-type]
     small = prepare(run_inputs(**SMALL_STEP, **SNAP_HOP))  # type: ignore[arg-type]

@@ -22,13 +22,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from tumblemc.model.fields import Rotating
-from tumblemc.model.run import prepare, run_inputs
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fast_landings import before_step  # noqa: E402
+from fast_landings import write_before_step  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "vertex_rest.npz"
 RUN = {
@@ -45,9 +42,7 @@ STEPS = 474_056  # steps taken before the landing
 
 
 def main() -> None:
-    saved = before_step(prepare(run_inputs(**RUN)), STEPS)  # type: ignore[arg-type]
-    np.savez(OUT, allow_pickle=False, **saved)
-    print(f"wrote {OUT}")
+    write_before_step(OUT, RUN, STEPS)
 
 
 if __name__ == "__main__":
