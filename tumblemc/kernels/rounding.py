@@ -92,10 +92,12 @@ def rounding_scales(z, prob, out):  # type: ignore[no-untyped-def]  # noqa: C901
         ib = max(ib, abs(prm[P_IB + 3 * i]) + abs(prm[P_IB + 3 * i + 1]) + abs(prm[P_IB + 3 * i + 2]))
     w0 = _norm2(sc, S_W)
     w1 = _norm2(z, 3)
+    w1_1 = _abs1(z, 3)  # |w+|_1, for the friction rows of every block
+    v1_1 = _abs1(z, 0)
     xp = 0.0  # |x+|_1
     for i in range(3):
         xp += abs(sc[S_X + i] + h * z[i])
-    lin = m * (_abs1(sc, S_V) + _abs1(z, 0)) / h + _abs1(sc, S_FEXT)
+    lin = m * (_abs1(sc, S_V) + v1_1) / h + _abs1(sc, S_FEXT)
     ang = ib * (w0 + w1) / h + _abs1(sc, S_TM) + _abs1(sc, S_B1)
     if prm[P_ROT_PAPER] > 0.5:
         ang += ib * w0 * w0
@@ -127,10 +129,10 @@ def rounding_scales(z, prob, out):  # type: ignore[no-untyped-def]  # noqa: C901
             out[il0 + ic] = abs(z[il0 + ic]) + a1 + xp + cd  # FB(l_i, -f_i(a1))
         for i in range(3):
             out[ia2 + i] = lsum  # sum l_i N_i + n
-        vc = _abs1(z, 0) + _abs1(z, 3) * arm  # |v+|_1 + |w+|_1 |r|_1, r's rounding included
+        vc = v1_1 + w1_1 * arm  # |v+|_1 + |w+|_1 |r|_1, r's rounding included
         out[off + 6] = mu * et * ln * vc + lt * sig / et
         out[off + 7] = mu * eo * ln * vc + lo * sig / eo
-        out[off + 8] = mu * er * ln * _abs1(z, 3) + lr * sig / er
+        out[off + 8] = mu * er * ln * w1_1 + lr * sig / er
         out[off + B_SIG] = sig + (mu * ln) ** 2 + (lt / et) ** 2 + (lo / eo) ** 2 + (lr / er) ** 2
         out[il0 + mk] = ls + a2  # FB(l_s, -g(a2))
         out[il0 + mk + 1] = ln + a1  # FB(lam_n, g(a1))
