@@ -27,7 +27,7 @@ def lost_task(task: Task, err: BaseException) -> StudyAbortedError:
     what = f"the {task.kind} task of {runs}"
     if type(err).__name__ == "KilledWorker":
         tries = getattr(err, "allowed_failures", 0) + 1
-        why = f"the workers died {tries} times running {what} (a worker process ended: out of memory, a crash, or killed)"
+        why = f"the workers died {tries} times holding {what} (a worker process ended: out of memory, a crash, or killed)"
     else:
         why = f"{what} failed on the cluster ({type(err).__name__}: {err})"
     return StudyAbortedError(why)
