@@ -1,4 +1,4 @@
-"""Why two landings failed at every strategy and every halving (docs/notes/solver_gaps.md, sections 11 and 12).
+"""Why three landings failed at every strategy and every halving (docs/notes/solver_gaps.md, sections 11 to 13).
 
 A saved step (``tests/data/<case>.npz``), each fresh guess of the strategy ladder solved by
 the kernel's plain Newton: the residual it stops at, the row that holds it, that row's
@@ -6,9 +6,12 @@ rounding allowance (``kernels.rounding``) and the contact forces; last the whole
 through the time loop. For ``tiny_step_landing`` (the paper cuboid hopping at 239.84 Hz,
 20 mT, at 16 times the default step) first the rigid-body impact of its level edge.
 ``vertex_rest``: a robot of cell 1 at 3.125e-7 s, a corner landing that stops a turn.
+``vertex_pass_through``: a robot of cell 1 at 7.8e-8 s, a corner impact that no attempt
+solves (section 13, open).
 
     python experiments/landing_guesses.py tiny_step_landing
     python experiments/landing_guesses.py vertex_rest
+    python experiments/landing_guesses.py vertex_pass_through
 """
 
 from __future__ import annotations

@@ -9,7 +9,8 @@ Three cells beyond the paper's operating points:
 ``ensemble``: 100 robots per cell with the default uncertainties (mu truncnormal 15%,
 adhesion_C lognormal CV 30%, offset_deg normal sd 5 deg about the cell's nominal,
 magnetization normal 10%), each at the default step, at 4x finer and at 5e-5 s: the mean
-progress ratio and P(success) (ratio >= 0.5) with Wilson 95% intervals.
+progress ratio and P(success) (ratio >= 0.5) with Wilson 95% intervals, over the valid runs.
+A run ends at its first failed step, as in a study: it is invalid either way.
 
 ``ladder``: the nominal robot of each cell at h, h/4, h/16, h/64 (h the default), and two
 twins at h with the magnetisation x (1 +- 1e-6): a run is *converged* when the ladder's
@@ -73,8 +74,13 @@ def robots(cell: str, n: int, seed: int = 45) -> list[dict[str, float]]:
     return out
 
 
-def one(cell: str, over: dict[str, float], dt: float | None) -> tuple[float, int, float, str]:
-    """(progress ratio, status, dt used, dt rule) of one run; dt None: the default."""
+def one(cell: str, over: dict[str, float], dt: float | None, stop_at_failure: bool = False) -> tuple[float, int, float, str]:
+    """(progress ratio, status, dt used, dt rule) of one run; dt None: the default.
+
+    ``stop_at_failure``: end the run at its first failed step, as a study does
+    (``max_failed_steps=1``); such a run is invalid either way, and a path that fails step
+    after step would otherwise cost minutes a step (docs/notes/step_size.md, cell 1).
+    """
     import tumblemc as tm
     from tumblemc.model.fields import Rotating
     from tumblemc.model.step_size import CEILING_S
@@ -89,7 +95,17 @@ def one(cell: str, over: dict[str, float], dt: float | None) -> tuple[float, int
 
         step = run_inputs(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], **kw).dt
     every = max(1, round(CEILING_S / 10 / step))  # a record every 5 us whatever the step
-    ds = tm.simulate(c["shape"], c["preset"], field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], dt=dt, record_every=every, **kw)
+    solver = tm.SolverOptions(max_failed_steps=1 if stop_at_failure else 0)
+    ds = tm.simulate(
+        c["shape"],
+        c["preset"],
+        field=Rotating(c["mT"], c["hz"]),
+        duration_s=c["duration_s"],
+        dt=dt,
+        record_every=every,
+        solver=solver,
+        **kw,
+    )
     s = tm.summarize(ds)
     return float(s["progress_ratio"]), int(s["status"]), float(ds.attrs["dt"]), str(ds.attrs["dt_rule"])
 
@@ -122,7 +138,7 @@ def ensemble(args: argparse.Namespace) -> None:
             t0 = time.perf_counter()
             res = []
             with ProcessPoolExecutor(args.workers) as ex:
-                for j, x in enumerate(ex.map(one, [cell] * len(rs), rs, [dt] * len(rs))):
+                for j, x in enumerate(ex.map(one, [cell] * len(rs), rs, [dt] * len(rs), [True] * len(rs))):
                     res.append(x)  # each robot on stderr as it arrives, with the time since the stage began
                     print(
                         f"    {cell} {label} robot {j}: ratio {x[0]:.3f}, status {x[1]}, {time.perf_counter() - t0:.0f} s",

@@ -601,6 +601,31 @@ def test_a_vertex_landing_that_stops_a_turn_is_solved_by_the_rescue_at_dt() -> N
     assert row[L.R_LN] > 100.0  # with a normal force of hundreds of weights (the torsional capacity)
 
 
+# ---- A vertex impact that a loose step lets through the plane (an open gap) ---------------
+# The saved step (tests/data/vertex_pass_through.py: a robot of cell 1 at 4x finer than the
+# near-step-out default, 7.8e-8 s) starts with a corner on the plane, moving into it at 15.8
+# (scaled; 0.49 m/s) while the robot turns about the normal. No attempt solves the impact at
+# any depth; the impulse rule keeps, as loose, an attempt with almost no normal force whose
+# corner ends one step's travel below the plane (3.9e-4, under the rule's 1e-3 length
+# tolerance). The next step does the same, and the third fails (docs/notes/solver_gaps.md,
+# section 13). What the solver should do: solve the impact, or fail the step.
+
+VERTEX_PASS = load_tool("vertex_pass_through")
+
+
+@pytest.mark.xfail(strict=True, reason="open gap: a loose step lets a corner through the plane (solver_gaps.md, section 13)")
+def test_a_vertex_impact_is_not_kept_loose_through_the_plane() -> None:
+    saved = np.load(VERTEX_PASS.OUT)
+    spec = prepare(run_inputs(**VERTEX_PASS.RUN))
+    (status, failed, _), row, _, _ = one_step(saved, spec)
+    state = saved["state"]
+    corner = saved["z"][6:9]  # the last step's contact point: the corner, on the plane
+    vn = state[9] + np.cross(state[10:13], corner - state[0:3])[2]  # its normal velocity (flat plane)
+    travel = -vn * spec.h
+    assert abs(corner[2]) < 1e-9 and travel > 3e-4  # the premise: on the plane, moving into it
+    assert failed == 1 or row[L.R_PEN] < 0.1 * travel
+
+
 # ---- Smoothing skipped once a step is kept anyway (smooth_stalled) -----------------------
 # Skipping the smoothing strategies once a step is kept anyway (``SolverOptions.smooth_stalled``).
 #
