@@ -6,8 +6,8 @@ rounding allowance (``kernels.rounding``) and the contact forces; last the whole
 through the time loop. For ``tiny_step_landing`` (the paper cuboid hopping at 239.84 Hz,
 20 mT, at 16 times the default step) first the rigid-body impact of its level edge.
 ``vertex_rest``: a robot of cell 1 at 3.125e-7 s, a corner landing that stops a turn.
-``vertex_pass_through``: a robot of cell 1 at 7.8e-8 s, a corner impact that no attempt
-solves (section 13, open).
+``vertex_pass_through``: a robot of cell 1 at 7.8e-8 s, a corner impact that no attempt of
+the ladder solves, and the rescue pass does (section 13).
 
     python experiments/landing_guesses.py tiny_step_landing
     python experiments/landing_guesses.py vertex_rest

@@ -6,12 +6,12 @@ adhesion, offset and magnetisation below) at 4x finer than the near-step-out def
 7.8125e-8 s, integrated with the default options up to the step before t = 0.242120 s. The
 step before put a corner on the plane (converged, 150 weights of normal force) without
 stopping it: it moves into the plane at 15.8 (scaled; 0.49 m/s) while the robot turns at
-1.2 (scaled) about the normal. No attempt solves the impact at any depth, and the impulse
-rule keeps, as loose, an attempt with 1.7 weights of normal force whose corner ends one
-step's travel (3.9e-4 scaled, 39 nm) below the plane. The two steps after it go 7.7e-4 and
-1.16e-3 deep; the last is past the rule's length tolerance and fails at every depth, after
-3.9 million Newton iterations (38 s; 8e6c9ed fails it the same way in 155 s).
-docs/notes/solver_gaps.md, section 13.
+1.2 (scaled) about the normal. No attempt of the ladder solves the impact at any depth.
+The impulse rule used to keep, as loose, attempts with 1.7 weights of normal force whose
+corner ended one step's travel (3.9e-4 scaled, 39 nm) below the plane; the two steps after
+it went 7.7e-4 and 1.16e-3 deep, and the last failed at every depth after 3.9 million
+Newton iterations (38 s). Now such an attempt is refused (``contact.IMPULSE_PASS_DEPTH``)
+and the rescue pass solves the impact at dt. docs/notes/solver_gaps.md, section 13.
 
 Run from the repository root: ``python tests/data/vertex_pass_through.py`` (about 10 s).
 """

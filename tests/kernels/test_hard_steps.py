@@ -601,29 +601,70 @@ def test_a_vertex_landing_that_stops_a_turn_is_solved_by_the_rescue_at_dt() -> N
     assert row[L.R_LN] > 100.0  # with a normal force of hundreds of weights (the torsional capacity)
 
 
-# ---- A vertex impact that a loose step lets through the plane (an open gap) ---------------
+# ---- A vertex impact that the impulse rule let through the plane --------------------------
 # The saved step (tests/data/vertex_pass_through.py: a robot of cell 1 at 4x finer than the
 # near-step-out default, 7.8e-8 s) starts with a corner on the plane, moving into it at 15.8
-# (scaled; 0.49 m/s) while the robot turns about the normal. No attempt solves the impact at
-# any depth; the impulse rule keeps, as loose, an attempt with almost no normal force whose
-# corner ends one step's travel below the plane (3.9e-4, under the rule's 1e-3 length
-# tolerance). The next step does the same, and the third fails (docs/notes/solver_gaps.md,
-# section 13). What the solver should do: solve the impact, or fail the step.
+# (scaled; 0.49 m/s) while the robot turns about the normal. No attempt of the ladder
+# solves the impact at any depth. The impulse rule used to keep, as loose, attempts with
+# almost no normal force whose corner ended one step's travel below the plane (3.9e-4, under
+# the rule's 1e-3 length tolerance); the next step did the same and the third failed. Now a
+# kept attempt's contact point below the plane must not be moving further in
+# (``contact.IMPULSE_PASS_DEPTH``), so the step goes on to the rescue pass, which solves the
+# impact at dt (docs/notes/solver_gaps.md, section 13).
 
 VERTEX_PASS = load_tool("vertex_pass_through")
 
 
-@pytest.mark.xfail(strict=True, reason="open gap: a loose step lets a corner through the plane (solver_gaps.md, section 13)")
-def test_a_vertex_impact_is_not_kept_loose_through_the_plane() -> None:
+def _vertex_pass_step(rescue_iter: int) -> tuple[Any, np.ndarray, Start, Any]:
     saved = np.load(VERTEX_PASS.OUT)
-    spec = prepare(run_inputs(**VERTEX_PASS.RUN))
-    (status, failed, _), row, _, _ = one_step(saved, spec)
-    state = saved["state"]
+    spec = prepare(run_inputs(**VERTEX_PASS.RUN, solver=SolverOptions(rescue_iter=rescue_iter)))
+    out, row, end, buf = one_step(saved, spec)
+    return out, row, end, (saved, spec, buf)
+
+
+def _corner_vn(state: np.ndarray, corner: np.ndarray) -> float:
+    """The normal velocity (the plane is flat: along z) of the body point ``corner``."""
+    return float(state[9] + np.cross(state[10:13], corner - state[0:3])[2])
+
+
+def test_a_vertex_impact_is_not_kept_loose_through_the_plane() -> None:
+    (status, failed, _), row, _, (saved, spec, _) = _vertex_pass_step(0)
     corner = saved["z"][6:9]  # the last step's contact point: the corner, on the plane
-    vn = state[9] + np.cross(state[10:13], corner - state[0:3])[2]  # its normal velocity (flat plane)
-    travel = -vn * spec.h
+    travel = -_corner_vn(saved["state"], corner) * spec.h
     assert abs(corner[2]) < 1e-9 and travel > 3e-4  # the premise: on the plane, moving into it
-    assert failed == 1 or row[L.R_PEN] < 0.1 * travel
+    # without the rescue pass nothing solves it: failed, not kept loose a step's travel deep
+    assert failed == 1 and row[L.R_LOOSE] == 0 and row[L.R_IMPULSE] == 0
+
+
+def test_a_vertex_impact_is_solved_by_the_rescue_at_dt() -> None:
+    (status, failed, _), row, end, (saved, spec, buf) = _vertex_pass_step(SolverOptions().rescue_iter)
+    assert status == L.ST_OK and failed == 0 and row[L.R_LOOSE] == 0 and row[L.R_SUB] == 0
+    assert row[L.R_RES] < 1e-6  # stopped on the rows' rounding (kernels.rounding), not kept loose
+    vn0 = _corner_vn(saved["state"], saved["z"][6:9])
+    vn1 = _corner_vn(end.state, buf.z[6:9])
+    assert vn0 < -15.0 and abs(vn1) < 1e-3 * abs(vn0)  # the corner stops on the plane
+    assert row[L.R_PEN] < 1e-6 and row[L.R_LN] > 1e4  # with an impact's normal force, not through it
+
+
+def test_passes_through_against_its_numpy_twin() -> None:
+    """``contact.passes_through`` on random planes, poses and attempts, against numpy."""
+    from tumblemc.kernels.contact import IMPULSE_PASS_DEPTH, passes_through
+
+    rng = np.random.default_rng(45)
+    prm = np.zeros(L.N_PRM)
+    seen = set()
+    for _ in range(400):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        prm[L.P_N : L.P_N + 3] = n
+        z, state = rng.normal(size=24), rng.normal(size=13)
+        z[6:9] += (rng.uniform(-3e-6, 1e-6) - n @ z[6:9]) * n  # the contact point near the plane
+        hc = rng.uniform(1e-4, 1e-2)
+        vn = n @ (z[0:3] + np.cross(z[3:6], z[6:9] - (state[0:3] + hc * z[0:3])))
+        want = bool(n @ z[6:9] < -IMPULSE_PASS_DEPTH and vn < 0.0)
+        assert passes_through(z, state, hc, prm, 6) == want
+        seen.add(want)
+    assert seen == {True, False}
 
 
 # ---- Smoothing skipped once a step is kept anyway (smooth_stalled) -----------------------

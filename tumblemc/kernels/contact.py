@@ -52,6 +52,7 @@ CONTACT_L_TOL = 1e-6  # l_i above this fraction of sum(l) marks constraint i as 
 CONTACT_LN_TOL = 1e-9  # normal force (units of the weight) above which a piece touches
 FLIGHT_MARGIN = 1e-9  # clearance (scaled length) above which a free-flight end pose is accepted
 IMPULSE_ACCEPT_LEN = 1e-3  # geometric and complementarity rows of a step kept by impulse_consistent (scaled length)
+IMPULSE_PASS_DEPTH = 1e-6  # a kept attempt's contact point this far below the plane (scaled length) must not move further in
 
 
 @jit
@@ -138,7 +139,10 @@ def impulse_consistent(z, state, hc, prob, ws, tol_rel):  # type: ignore[no-unty
     magnitudes, ``rho`` the largest lever ``|a1 - x|``, at least one length unit), the
     friction rows against ``(1 + L) (1 + |v+| + rho |w+|)``, the friction-cone row against
     ``(1 + L)^2`` plus ``IMPULSE_ACCEPT_LEN``; the geometric and complementarity rows (lengths and multipliers) within
-    ``IMPULSE_ACCEPT_LEN``. Fills ``ws.Ft`` with the residual."""
+    ``IMPULSE_ACCEPT_LEN``. A contact point that ends more than ``IMPULSE_PASS_DEPTH`` below
+    the plane must not be moving further in (an attempt whose normal force does nothing
+    balances the other rows while the contact passes through the plane, a step's travel a
+    step: docs/notes/solver_gaps.md, section 13). Fills ``ws.Ft`` with the residual."""
     plain_residual(z, prob, ws)
     F = ws.Ft
     prm = prob.prm
@@ -180,8 +184,31 @@ def impulse_consistent(z, state, hc, prob, ws, tol_rel):  # type: ignore[no-unty
         for i in range(off + B_L, off + B_L + mk + 2):  # FB(l_i), FB(l_s), FB(lam_n)
             if not abs(F[i]) <= IMPULSE_ACCEPT_LEN:
                 return False
+        if passes_through(z, state, hc, prm, off + B_A1):
+            return False
         off += B_FIXED + mk
     return True
+
+
+@jit
+def passes_through(z, state, hc, prm, ia1):  # type: ignore[no-untyped-def]
+    """Whether the contact point ``z[ia1:ia1+3]`` ends more than ``IMPULSE_PASS_DEPTH`` below
+    the plane and still moving into it (``v+ + w+ x (a1 - x+)`` along the normal, ``x+`` the
+    end position): an attempt that has not landed."""
+    gap = 0.0
+    for i in range(3):
+        gap += prm[P_N + i] * z[ia1 + i]
+    if not gap < -IMPULSE_PASS_DEPTH:
+        return False
+    r0 = z[ia1] - (state[0] + hc * z[0])
+    r1 = z[ia1 + 1] - (state[1] + hc * z[1])
+    r2 = z[ia1 + 2] - (state[2] + hc * z[2])
+    vn = (
+        prm[P_N] * (z[0] + z[4] * r2 - z[5] * r1)
+        + prm[P_N + 1] * (z[1] + z[5] * r0 - z[3] * r2)
+        + prm[P_N + 2] * (z[2] + z[3] * r1 - z[4] * r0)
+    )
+    return vn < 0.0
 
 
 @jit

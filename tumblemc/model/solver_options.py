@@ -62,8 +62,12 @@ class SolverOptions:
         residual times the sub-step, against ``m (|v| + |v+|) + h (m g + contact forces)``
         and its angular twin), its friction rows to this fraction of their terms, and its
         ECP, normal-cone and complementarity rows to 1e-3 in scaled units (0.1 um where the
-        row is a length: the penetration tolerance of the 3-D runs). The same iterate is kept
-        either way: only the label changes (and a run with ``max_failed_steps`` goes on).
+        row is a length: the penetration tolerance of the 3-D runs), and if its contact point
+        ends more than 1e-6 below the plane, that point is not moving further in (an attempt
+        whose normal force does nothing passes through the plane a step's travel a step:
+        docs/notes/solver_gaps.md, section 13). A step refused goes to the rescue pass
+        (``rescue_iter``), then fails; with the rescue off the same iterate is kept either
+        way: only the label changes (and a run with ``max_failed_steps`` goes on).
         At a landing solved in a tiny sub-step the contact forces are an impulse divided by that sub-step (1e6 weights at 2e-8 s), and
         Newton can stall at a kink with a residual of 0.9 that is 5e-7 of the forces it
         balances (docs/solver_gaps.md). The energy ledger still judges what is kept; steps
