@@ -92,7 +92,8 @@ O_ACCEPT = 6  # an unsolved (sub-)step is kept at once, as loose, if its best re
 O_NWORK = 7
 # a (sub-)step that fails at the smallest sub-step is kept as loose if its best attempt
 # balances momentum to this fraction of the step's momenta and impulses and its geometric
-# rows to IMPULSE_ACCEPT_LEN (stepper._impulse_consistent; 0: never, such steps fail)
+# rows to IMPULSE_ACCEPT_LEN, and its contact does not pass through the plane
+# (contact.impulse_consistent; 0: never, such steps fail)
 O_IMPULSE = 8
 # chord iterations (the factors of an earlier Newton matrix of the same step length) at
 # the start of a step's first attempt, before Newton (newton.solve; 0: never)
