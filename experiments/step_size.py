@@ -104,6 +104,7 @@ def one(cell: str, over: dict[str, float], dt: float | None, stop_at_failure: bo
         dt=dt,
         record_every=every,
         solver=solver,
+        max_wall_s=None,  # the finest rungs take minutes a run, on purpose
         **kw,
     )
     s = tm.summarize(ds)
