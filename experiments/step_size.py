@@ -22,6 +22,7 @@ spread is within 0.05, *sensitive* when the twins move it as much as the ladder 
     python experiments/step_size.py swarm [--twins 32] [--save PREFIX]  # 32 twins per rung, 1e-6 in random directions
     python experiments/step_size.py stepout     # paper cuboid, flat, 20 mT: default, /4, /16
     python experiments/step_size.py spin        # free-spin energy drift per integrator option
+    python experiments/step_size.py check       # tumblemc.check_step on each cell's nominal robot, at the default and 5e-5 s
 """
 
 from __future__ import annotations
@@ -389,9 +390,43 @@ def spin(args: argparse.Namespace) -> None:
             )
 
 
+def check(args: argparse.Namespace) -> None:
+    """``tumblemc.check_step`` on each cell's nominal robot at each of ``--steps`` (default and 5e-5 s).
+
+    The run's own wall time (``simulate`` alone, one thread) is measured apart: the check's
+    cost is its wall time (``--workers`` threads) over it.
+    """
+    import tumblemc as tm
+    from tumblemc.model.fields import Rotating
+
+    print("| cell | dt (s) | ratio | at dt / 4 | twins | finer step's move | twins' move | tolerance | class | run (s) | check (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for cell in args.cells.split(","):
+        c = CELLS[cell]
+        _, nom, h = _nominal(cell)
+        kw = dict(nom, **({"offset_axis": (0.0, 0.0, 1.0)} if c["offset"] is not None else {}))
+        kw.update(field=Rotating(c["mT"], c["hz"]), duration_s=c["duration_s"], max_wall_s=None)
+        kw["record_every"] = max(1, round(5e-6 / h))  # a record every 5 us at the default step
+        for step in args.steps.split(","):
+            dt = None if step == "default" else float(step)
+            every = kw["record_every"] if dt is None else 1
+            t0 = time.perf_counter()
+            tm.simulate(c["shape"], c["preset"], **dict(kw, dt=dt, record_every=every))
+            t_run = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            r = tm.check_step(c["shape"], c["preset"], **dict(kw, dt=dt, record_every=every), workers=args.workers)
+            t_check = time.perf_counter() - t0
+            tw = f"{r.twin_ratios.min():.3f} .. {r.twin_ratios.max():.3f}"
+            print(
+                f"| {cell} | {r.dt:.4g} | {r.ratio:.3f} | {r.fine_ratio:.3f} | {tw} | {r.move:.3f} | {r.twin_spread:.3f} | {r.tol:.3f} "
+                f"| {r.cls} | {t_run:.1f} | {t_check:.1f} |",
+                flush=True,
+            )
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["ensemble", "ladder", "twins", "swarm", "stepout", "spin"])
+    ap.add_argument("stage", choices=["ensemble", "ladder", "twins", "swarm", "stepout", "spin", "check"])
     ap.add_argument("--steps", default="default,default/4,5e-5", help="ensemble: steps (default, default/K, 5e-5); the first is the base")
     ap.add_argument("--twins", type=int, default=32, help="swarm: twins per rung")
     ap.add_argument("--midpoint", action="store_true", help="swarm: the midpoint rule (rotation='midpoint', torque='mid')")
@@ -401,9 +436,12 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--divs", default="1,4,16,64")
     ap.add_argument("--save", default="", help="ensemble: write each ensemble's ratios to <save>_<cell>_<step>.npz")
     args = ap.parse_args(argv)
+    if args.stage == "check" and args.steps == "default,default/4,5e-5":
+        args.steps = "default,5e-5"
     if args.stage == "stepout" and args.divs == "1,4,16,64":
         args.divs = "1,4,16"
-    {"ensemble": ensemble, "ladder": ladder, "twins": twins, "swarm": swarm, "stepout": stepout, "spin": spin}[args.stage](args)
+    stages = {"ensemble": ensemble, "ladder": ladder, "twins": twins, "swarm": swarm, "stepout": stepout, "spin": spin, "check": check}
+    stages[args.stage](args)
 
 
 if __name__ == "__main__":

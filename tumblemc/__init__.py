@@ -2,7 +2,8 @@
 
 The model is that of Xie, Bi, Cappelleri & Chakraborty (IDETC 2019).
 
-The public API: :func:`simulate` and :func:`summarize` (one run), :func:`load_config`,
+The public API: :func:`simulate`, :func:`summarize` and :func:`check_step` (one run and
+whether its step sets its answer), :func:`load_config`,
 :func:`run_study` and :func:`open_result` (studies), the shapes (``tumblemc.shapes``,
 the module :mod:`tumblemc.model.shapes` as an attribute), :data:`PRESETS`, :class:`Params`
 and :class:`SolverOptions`. The subpackages and modules below are attributes after
@@ -21,6 +22,7 @@ from tumblemc.model.params import PRESETS, Params
 from tumblemc.model.run import simulate
 from tumblemc.model.shapes import SHAPES, Shape, extruded, get_shape
 from tumblemc.model.solver_options import SolverOptions
+from tumblemc.model.step_check import check_step
 from tumblemc.version import __version__
 
 _LAZY = {"load_config": "tumblemc.study.config", "run_study": "tumblemc.study.engine"}
@@ -68,6 +70,7 @@ __all__ = [
     "Shape",
     "SolverOptions",
     "__version__",
+    "check_step",
     "extruded",
     "get_shape",
     "load_config",

@@ -54,6 +54,21 @@ def test_simulate_writes_netcdf_and_png(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_simulate_with_the_step_check_says_its_class_and_keeps_it(tmp_path, capsys):
+    out = tmp_path / "run.nc"
+    rc = main(["simulate", "--freq-hz", "2", "--duration-s", "1.5", "--check", "--check-twins", "2", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert rc == 0, captured.err
+    assert "step check: within tolerance. Progress ratio" in captured.out
+    assert captured.err.count("step check: ") == 4  # the run, dt / 4 and two twins, as each finishes
+    with xr.open_dataset(out, engine="netcdf4") as ds:
+        assert ds.attrs["step_check_class"] == "within tolerance"
+        assert float(ds.attrs["step_check_fine_dt"]) == pytest.approx(float(ds.attrs["dt"]) / 4)
+        assert np.asarray(ds.attrs["step_check_twin_ratios"]).shape == (2,)
+    assert main(["simulate", "--check", "--check-factor", "1", "--out", str(tmp_path / "bad.nc")]) == 2
+    assert "factor=1" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("argv", "field"),
     [

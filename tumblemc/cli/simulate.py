@@ -59,6 +59,14 @@ def register(sub: Any) -> None:
         default=DEFAULT_MAX_WALL_S,
         help="wall-time budget, s: a long run is refused if its first steps project more (default: 600; inf: no limit)",
     )
+    s.add_argument(
+        "--check",
+        action="store_true",
+        help="also run the step check: the run again at dt / 4 and as 4 twins (magnetisation changed by 1e-6), "
+        "and say whether the step sets the answer (within tolerance, limited by dt, sensitive); about 8 times the run's cost",
+    )
+    s.add_argument("--check-factor", type=int, default=4, help="the step check's finer step is dt / this (2 to 64; default: 4)")
+    s.add_argument("--check-twins", type=int, default=4, help="the step check's twins at dt (0 to 64; default: 4)")
     s.add_argument("--out", default="run.nc", help="output netCDF path (default: run.nc)")
     s.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
     s.set_defaults(run=run)
@@ -76,7 +84,14 @@ def run(args: argparse.Namespace) -> int:
     kw.update(torque=args.torque, rotation=args.rotation, record_every=args.record_every, **overrides)
     for note in run_notes(run_inputs(**kw)):  # valid, but maybe not what was meant
         print(f"note: {note}", file=sys.stderr)
-    ds = simulate(**kw, max_wall_s=args.max_wall_s)
+    check = None
+    if args.check:
+        from tumblemc.model.step_check import check_step
+
+        check = check_step(**kw, max_wall_s=args.max_wall_s, factor=args.check_factor, twins=args.check_twins, progress=True)
+        ds = check.run
+    else:
+        ds = simulate(**kw, max_wall_s=args.max_wall_s)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_run(ds, out)
     print(f"wrote {out}")
@@ -97,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
         print(said)
         summary = {(verdict_name(args.incline_deg) if k == "climbed" else k): v for k, v in summary.items()}
     print(format_table(summary, SUMMARY_UNITS))
+    if check is not None:
+        print(check.words())
     status = int(ds.attrs.get("status", 0))
     if status != 0:
         meaning = STATUS_MEANINGS.get(status, "see status_meanings")

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from tumblemc.model.step_check import RATIO_ABS_TOL, RATIO_REL_TOL
 from tumblemc.study.checks import check_int, check_no_unknown, check_num, check_table, config_error
 
 
@@ -32,8 +33,8 @@ class CheckConfig:
     fraction: float = 0.02
     min_runs: int = 20
     dt_factor: int = 4
-    ratio_abs_tol: float = 0.05
-    ratio_rel_tol: float = 0.1
+    ratio_abs_tol: float = RATIO_ABS_TOL  # the single-run step check's too (model/step_check.py)
+    ratio_rel_tol: float = RATIO_REL_TOL
     twin_rel: float = 1e-6
 
 
