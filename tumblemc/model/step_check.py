@@ -245,18 +245,19 @@ def check_step(
     say = progress if callable(progress) else (lambda s: print(s, file=sys.stderr, flush=True)) if progress else None
     t0 = time.perf_counter()
 
-    def one(job: tuple[str, dict[str, Any]]) -> tuple[xr.Dataset, float, int]:
+    def one(job: tuple[str, dict[str, Any]]) -> tuple[xr.Dataset | None, float, int]:
         name, kw = job
         ds = simulate(**kw)
         s = summarize(ds, threshold=threshold)
         if say is not None:
             say(f"step check: {name} done (ratio {_fmt(s['progress_ratio'])}, status {s['status']}, {time.perf_counter() - t0:.1f} s)")
-        return ds, float(s["progress_ratio"]), int(s["status"])
+        return (ds if kw is kwargs else None), float(s["progress_ratio"]), int(s["status"])  # only the run's records are kept
 
     n_threads = max(1, min(len(jobs), workers if workers is not None else (os.cpu_count() or 1)))
     with ThreadPoolExecutor(n_threads) as pool:
         out = list(pool.map(one, jobs))
     (ds, ratio, status), (_, fine_ratio, fine_status) = out[0], out[1]
+    assert ds is not None
     t_ratio = np.array([r for _, r, _ in out[2:]], dtype=float)
     t_status = np.array([s for _, _, s in out[2:]], dtype=np.int64)
     tol = tolerance(fine_ratio, ratio_abs_tol, ratio_rel_tol) if math.isfinite(fine_ratio) else math.nan
