@@ -31,7 +31,7 @@ from tumblemc.testing import ISHIGAMI_BOUNDS, ishigami, synthetic_runs
 from tumblemc.viz.calibrate import plot_calibration
 from tumblemc.viz.lab import plot_critical_field, plot_static_tilt, plot_steering, plot_step_out
 from tumblemc.viz.ratio import plot_ratio_distribution
-from tumblemc.viz.run import plot_run, plot_shapes
+from tumblemc.viz.run import plot_run, plot_shapes, plot_step_check
 from tumblemc.viz.sensitivity import plot_prim, plot_sobol, plot_success_vs_parameter
 from tumblemc.viz.stress import stress_figure
 from tumblemc.viz.study import plot_critical_distribution, plot_success_curves, plot_success_heatmap
@@ -344,6 +344,24 @@ FIGURES: dict[str, Callable[..., Figure]] = {
 @pytest.mark.parametrize("name", list(FIGURES))
 def test_figure_has_no_text_on_text(name: str) -> None:
     assert_clean_layout(FIGURES[name]())
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        dict(preset="paper", field=(20.0, 150.0), dt=5e-5),  # limited by dt
+        dict(preset="aluminum", field=(100.0, 100.0), dt=5e-5, offset_deg=30.0, offset_axis=(0.0, 0.0, 1.0)),  # not checked
+    ],
+    ids=["limited", "not_checked"],
+)
+def test_step_check_figure(case: dict[str, Any], tmp_path: Path) -> None:
+    kw = dict(case)
+    res = tumblemc.check_step("cuboid", kw.pop("preset"), field=tumblemc.fields.Rotating(*kw.pop("field")), duration_s=0.2, **kw)
+    fig = plot_step_check(res, tmp_path / "check.png")
+    assert_clean_layout(fig)
+    assert (tmp_path / "check.png").stat().st_size > 10_000
+    assert res.cls in fig.texts[0].get_text() and "nan" not in fig.texts[0].get_text()
+    assert len(fig.axes[0].lines) == 2 + res.twin_ratios.size + 1  # the run, the finer run, the twins, the no-slip line
 
 
 @pytest.mark.parametrize("k", [0, 1], ids=["flat", "incline"])

@@ -68,7 +68,11 @@ def register(sub: Any) -> None:
     s.add_argument("--check-factor", type=int, default=4, help="the step check's finer step is dt / this (2 to 64; default: 4)")
     s.add_argument("--check-twins", type=int, default=4, help="the step check's twins at dt (0 to 64; default: 4)")
     s.add_argument("--out", default="run.nc", help="output netCDF path (default: run.nc)")
-    s.add_argument("--plot", action="store_true", help="also write a PNG figure next to the netCDF file")
+    s.add_argument(
+        "--plot",
+        action="store_true",
+        help="also write a PNG figure next to the netCDF file (with --check, the check's too: <out>_check.png)",
+    )
     s.set_defaults(run=run)
 
 
@@ -101,6 +105,12 @@ def run(args: argparse.Namespace) -> int:
         png = out.with_suffix(".png")
         plot_run(ds, png)
         print(f"wrote {png}")
+        if check is not None:
+            from tumblemc.viz.run import plot_step_check
+
+            png = out.with_name(out.stem + "_check.png")
+            plot_step_check(check, png)
+            print(f"wrote {png}")
     try:
         summary = summarize(ds)
     except ValueError as exc:

@@ -43,7 +43,7 @@ import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -59,6 +59,8 @@ CLASSES = ("within tolerance", "limited by dt", "sensitive", "not checked")
 RATIO_ABS_TOL = 0.05
 RATIO_REL_TOL = 0.1
 #: simulate's positional parameters, in order
+#: the records per run kept for the check's figure (a longer run is strided down to it)
+MAX_CURVE_POINTS = 20000
 POSITIONAL = ("shape", "preset", "incline_deg", "field_mT", "freq_hz", "duration_s", "dt")
 
 
@@ -102,6 +104,9 @@ class StepCheck:
     twin_spread: float
     threshold: float
     wall_s: float
+    #: each run's progress along the plane (m) against time (s), at most MAX_CURVE_POINTS records:
+    #: ``"the run"``, ``"dt / <factor>"``, ``"twin <i> of <n>"`` (:func:`tumblemc.viz.run.plot_step_check`)
+    curves: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     def words(self) -> str:
         """One paragraph for a person: the class, the numbers behind it and what to do."""
@@ -244,6 +249,7 @@ def check_step(
         jobs.append((f"twin {i + 1} of {twins}", dict(kwargs, dt=dt, **over)))  # the twin's own default step could differ
     say = progress if callable(progress) else (lambda s: print(s, file=sys.stderr, flush=True)) if progress else None
     t0 = time.perf_counter()
+    curves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 
     def one(job: tuple[str, dict[str, Any]]) -> tuple[xr.Dataset | None, float, int]:
         name, kw = job
@@ -251,6 +257,9 @@ def check_step(
         s = summarize(ds, threshold=threshold)
         if say is not None:
             say(f"step check: {name} done (ratio {_fmt(s['progress_ratio'])}, status {s['status']}, {time.perf_counter() - t0:.1f} s)")
+        t, p = ds["time"].values, ds["progress"].values
+        keep = np.unique(np.r_[np.arange(0, t.size, max(1, -(-t.size // MAX_CURVE_POINTS))), t.size - 1])
+        curves[name] = (t[keep], p[keep])
         return (ds if kw is kwargs else None), float(s["progress_ratio"]), int(s["status"])  # only the run's records are kept
 
     n_threads = max(1, min(len(jobs), workers if workers is not None else (os.cpu_count() or 1)))
@@ -282,6 +291,7 @@ def check_step(
         twin_spread=spread,
         threshold=threshold,
         wall_s=time.perf_counter() - t0,
+        curves={name: curves[name] for name, _ in jobs},
     )
     ds.attrs.update(res.as_attrs())
     return res

@@ -30,6 +30,7 @@ from tumblemc.analysis.words import verdict_name
 from tumblemc.model.frames import plane_frame, quat_to_matrix
 from tumblemc.model.shapes.library import SHAPES, get_shape
 from tumblemc.model.shapes.types import Shape
+from tumblemc.model.step_check import StepCheck
 from tumblemc.viz.style import format_penetration
 
 UM = 1e6  # metres -> micrometres
@@ -334,6 +335,66 @@ def plot_run(
     _panel_contact(ax_b, ax_b2, ds)
     _panel_strip(ax_c, ds, strip)
     fig.suptitle(f"{run_label(ds)}\n{_summary_label(ds)}", fontsize=10)
+    if path is not None:
+        fig.savefig(path, dpi=dpi)
+    return fig
+
+
+def plot_step_check(check: StepCheck, path: str | os.PathLike[str] | None = None, *, dpi: int = 150) -> Figure:
+    """Two panels of a :func:`tumblemc.check_step`: the runs' progress, and their ratios against the tolerance.
+
+    (a) progress along the plane against time: the run at its step, the run at the finer
+    step and the twins, with the no-slip line one field period in (where the ratio's window
+    starts); (b) each run's progress ratio on one axis, the tolerance band about the finer
+    step's ratio shaded and the climb threshold marked. The title gives the class.
+    """
+    ds = check.run
+    fig = Figure(figsize=(12.0, 4.4), layout="constrained")
+    ax_a, ax_b = fig.subplots(1, 2, width_ratios=[2.0, 1.0])
+    fine = f"dt / {check.factor}"
+    span = max((float(np.ptp(p)) for _, p in check.curves.values()), default=0.0)
+    scale, unit = (1e3, "mm") if span > 2e-3 else (UM, "µm")
+    for name, (t, p) in check.curves.items():
+        if name.startswith("twin"):
+            ax_a.plot(t, p * scale, color="0.6", lw=0.8, label="twins (magnetisation x 1e-6)" if name.startswith("twin 1 ") else None)
+    if fine in check.curves:
+        t, p = check.curves[fine]
+        ax_a.plot(t, p * scale, color="C3", lw=1.4, label=f"{fine} ({check.dt / check.factor:.3g} s)")
+    t, p = check.curves.get("the run", (ds["time"].values, ds["progress"].values))
+    ax_a.plot(t, p * scale, color="C0", lw=1.6, label=f"the run (dt {check.dt:.3g} s)")
+    freq, ideal = float(ds.attrs.get("freq_hz", 0.0)), float(ds.attrs.get("ideal_speed", 0.0))
+    if freq > 0 and ideal > 0 and len(t) > 1:
+        t0 = _anchor_time(t, freq)
+        p0 = float(np.interp(t0, t, p * scale))
+        tt = np.array([t0, t[-1]])
+        ax_a.plot(tt, p0 + ideal * scale * (tt - t0), "k--", lw=1, label=f"no slip, from t={t0:.3g} s (the ratio's window)")
+    ax_a.set_xlabel("time (s)")
+    ax_a.set_ylabel(f"progress along the plane ({unit})")
+    ax_a.set_title("(a) progress of each run", loc="left", fontsize=10)
+    ax_a.grid(True, alpha=0.3)
+    ax_a.legend(loc="upper left", fontsize=8, frameon=False)
+    rows = [("the run", check.ratio, check.status, "C0"), (fine, check.fine_ratio, check.fine_status, "C3")]
+    twins = zip(check.twin_ratios, check.twin_statuses, strict=True)
+    rows += [(f"twin {i + 1}", float(r), int(s), "0.45") for i, (r, s) in enumerate(twins)]
+    y = np.arange(len(rows))[::-1]
+    if np.isfinite(check.tol) and np.isfinite(check.fine_ratio):
+        lo, hi = check.fine_ratio - check.tol, check.fine_ratio + check.tol
+        ax_b.axvspan(lo, hi, color="C3", alpha=0.12, lw=0, label=f"tolerance about {fine}: ± {check.tol:.3g}")
+    ax_b.axvline(check.threshold, color="k", lw=0.8, ls=":", label=f"climb threshold {check.threshold:g}")
+    for yi, (_, r, st, color) in zip(y, rows, strict=True):
+        ax_b.plot([r], [yi], "o" if st == 0 else "x", color=color, ms=7)
+        ax_b.annotate(f"{r:.3f}" + ("" if st == 0 else f" (status {st})"), (r, yi), xytext=(6, 4), textcoords="offset points", fontsize=8)
+    ax_b.set_yticks(y, [r[0] for r in rows])
+    ax_b.set_ylim(-1.0, len(rows) + 0.2)
+    ax_b.set_xlabel("progress ratio")
+    ax_b.set_title("(b) progress ratios", loc="left", fontsize=10)
+    ax_b.grid(True, axis="x", alpha=0.3)
+    ax_b.legend(loc="upper center", fontsize=8, frameon=False, ncols=1, bbox_to_anchor=(0.5, 1.0))
+    said = f"the finer step moves the ratio by {check.move:.3g}, the twins by up to {check.twin_spread:.3g}; tolerance {check.tol:.3g}"
+    if check.cls == "not checked":
+        which, bad = ("the run", check.status) if check.status != 0 else (f"the run at {fine}", check.fine_status)
+        said = f"{which} is not valid, status {bad}: no comparison"
+    fig.suptitle(f"{run_label(ds)}" + "\n" + f"step check: {check.cls} ({said})", fontsize=10)
     if path is not None:
         fig.savefig(path, dpi=dpi)
     return fig
