@@ -385,11 +385,11 @@ def plot_step_check(check: StepCheck, path: str | os.PathLike[str] | None = None
         ax_b.plot([r], [yi], "o" if st == 0 else "x", color=color, ms=7)
         ax_b.annotate(f"{r:.3f}" + ("" if st == 0 else f" (status {st})"), (r, yi), xytext=(6, 4), textcoords="offset points", fontsize=8)
     ax_b.set_yticks(y, [r[0] for r in rows])
-    ax_b.set_ylim(-1.0, len(rows) + 0.2)
+    ax_b.set_ylim(-0.7, len(rows) - 0.3)
     ax_b.set_xlabel("progress ratio")
     ax_b.set_title("(b) progress ratios", loc="left", fontsize=10)
     ax_b.grid(True, axis="x", alpha=0.3)
-    ax_b.legend(loc="upper center", fontsize=8, frameon=False, ncols=1, bbox_to_anchor=(0.5, 1.0))
+    ax_b.legend(loc="upper center", fontsize=8, frameon=False, ncols=1, bbox_to_anchor=(0.5, -0.16))  # below the axis
     said = f"the finer step moves the ratio by {check.move:.3g}, the twins by up to {check.twin_spread:.3g}; tolerance {check.tol:.3g}"
     if check.cls == "not checked":
         which, bad = ("the run", check.status) if check.status != 0 else (f"the run at {fine}", check.fine_status)
