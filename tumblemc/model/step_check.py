@@ -19,14 +19,14 @@ ratio_rel_tol x |fine ratio|``, 0.05 + 10%), the finer step's move ``|fine - rat
 twins' largest move ``max |twin - ratio|``:
 
 - ``sensitive``: a 1e-6 change of the magnetisation moves the ratio beyond the tolerance and
-  at least as far as the finer step does (the issue's test: the twins move it as much as the
-  ladder does). The model does not determine this run's ratio to the tolerance and no step
+  at least as far as the finer step does (the twins move it as much as the step ladder
+  does). The model does not determine this run's ratio to the tolerance and no step
   can; the distribution of its neighbours (an ensemble, a study) is the answer;
 - ``limited by dt``: the finer step moves the ratio beyond the tolerance, farther than any
   twin does: the step, not the model, sets the answer; a finer ``dt`` gives a better one;
 - ``within tolerance``: neither moves it beyond the tolerance (at this one finer step: a
   run whose ratio drifts slowly with the step can pass, docs/notes/step_size.md);
-- ``not checked``: the run or its finer twin is not valid (its status says why).
+- ``not checked``: the run, or the run at the finer step, is not valid (its status says why).
 
 The study's dt check classes a run outside the tolerance as sensitive when its two twins
 move it beyond the tolerance. Here, where the finer step's move is known, the twins must also
@@ -53,7 +53,7 @@ from tumblemc.model.outcome import summarize
 from tumblemc.model.params import check_number
 from tumblemc.model.run import run_inputs, simulate
 
-#: the classes of :func:`classify`, in the order of the attribute ``step_check_class``'s meanings
+#: the classes of a checked run (the attribute ``step_check_class``)
 CLASSES = ("within tolerance", "limited by dt", "sensitive", "not checked")
 #: the study's dt-check tolerance (``[check]`` ``ratio_abs_tol``, ``ratio_rel_tol``)
 RATIO_ABS_TOL = 0.05
