@@ -58,14 +58,17 @@ CLASSES = ("within tolerance", "limited by dt", "sensitive", "not checked")
 #: the study's dt-check tolerance (``[check]`` ``ratio_abs_tol``, ``ratio_rel_tol``)
 RATIO_ABS_TOL = 0.05
 RATIO_REL_TOL = 0.1
-#: simulate's positional parameters, in order
 #: the records per run kept for the check's figure (a longer run is strided down to it)
 MAX_CURVE_POINTS = 20000
+#: simulate's positional parameters, in order
 POSITIONAL = ("shape", "preset", "incline_deg", "field_mT", "freq_hz", "duration_s", "dt")
 
 
-def tolerance(fine_ratio: float, abs_tol: float = RATIO_ABS_TOL, rel_tol: float = RATIO_REL_TOL) -> float:
-    """The tolerance of a ratio against its finer-step value: ``abs_tol + rel_tol x |fine|``."""
+def tolerance(fine_ratio: Any, abs_tol: float = RATIO_ABS_TOL, rel_tol: float = RATIO_REL_TOL) -> Any:
+    """The tolerance of a ratio against its finer-step value: ``abs_tol + rel_tol x |fine|`` (a float or an array, as given).
+
+    The one formula of a single run's check and a study's dt check (:func:`tumblemc.study.assemble.ratio_tol`).
+    """
     return abs_tol + rel_tol * abs(fine_ratio)
 
 
@@ -103,7 +106,6 @@ class StepCheck:
     move: float
     twin_spread: float
     threshold: float
-    wall_s: float
     #: each run's progress along the plane (m) against time (s), at most MAX_CURVE_POINTS records:
     #: ``"the run"``, ``"dt / <factor>"``, ``"twin <i> of <n>"`` (:func:`tumblemc.viz.run.plot_step_check`)
     curves: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
@@ -241,7 +243,7 @@ def check_step(
             "(allowed: a rotating field, the paper's or Rotating)"
         )
     dt = inp.dt
-    every = int(kwargs.get("record_every", 1))
+    every = inp.record_every
     # the run as the caller asked (its dt_rule kept); the finer run and the twins at a given step
     fine_kw = dict(kwargs, dt=dt / factor, record_every=every * factor)
     jobs: list[tuple[str, dict[str, Any]]] = [("the run", kwargs), (f"dt / {factor}", fine_kw)]
@@ -290,7 +292,6 @@ def check_step(
         move=move,
         twin_spread=spread,
         threshold=threshold,
-        wall_s=time.perf_counter() - t0,
         curves={name: curves[name] for name, _ in jobs},
     )
     ds.attrs.update(res.as_attrs())

@@ -14,6 +14,7 @@ import numpy as np
 import xarray as xr
 
 from tumblemc.analysis.critical import climbs_at
+from tumblemc.model.step_check import tolerance
 from tumblemc.schema import (
     CHECK_FLAG_ATTRS,
     CRITICAL_ATTRS,
@@ -126,7 +127,7 @@ def _audit(runs: xr.Dataset, check_idx: np.ndarray, check: dict[str, np.ndarray]
 
 def ratio_tol(cfg: StudyConfig, fine_ratio: np.ndarray) -> np.ndarray:
     """The dt check's tolerance of each check run: ``ratio_abs_tol + ratio_rel_tol |ratio at the finer dt|``."""
-    return cfg.check.ratio_abs_tol + cfg.check.ratio_rel_tol * np.abs(np.asarray(fine_ratio, dtype=np.float64))
+    return tolerance(np.asarray(fine_ratio, dtype=np.float64), cfg.check.ratio_abs_tol, cfg.check.ratio_rel_tol)
 
 
 def ratio_within(cfg: StudyConfig, coarse: dict[str, np.ndarray], fine: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
